@@ -1,0 +1,106 @@
+#pragma once
+/// \file Black-DROPS with priors and GP-MI: paper Algorithm 1, read top-down in run_black_drops().
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drops/model/dynamics_model.hpp"
+#include "drops/opt/cmaes.hpp"
+#include "drops/policy/policy.hpp"
+#include "drops/rollout/rollout.hpp"
+#include "drops/rollout/task.hpp"
+
+namespace drops::algo {
+
+/// Options of Algorithm 1. Defaults follow settings.md §1 and §5.
+struct BlackDropsOptions {
+  int episodes = 10;              ///< real episodes in total, including the first one, >= 1
+  std::uint64_t seed = 1;         ///< the run's single seed; every random stream derives from it
+  double theta_bound = 5.0;       ///< policy parameters searched in [-b, b], > 0
+  model::ModelOptions model;      ///< which model variant and its settings
+  opt::CmaesOptions cmaes;        ///< policy optimizer (seed and sigma0 are set per episode)
+  rollout::RolloutOptions rollouts;  ///< Monte-Carlo rollouts per policy evaluation
+  /// With a prior: number of successive optimizations on the prior alone for episode 1 (the second
+  /// restarts from the first's best), >= 1. The reference did 2.
+  int prior_optimizations = 2;
+  /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy.
+  int predicted_rollouts = 20;
+  /// Returns true when every field is valid; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
+};
+
+/// Everything recorded about one real episode. Complete when the on_episode callback receives it.
+struct EpisodeRecord {
+  int episode = 0;                  ///< 1-based
+  double interaction_time = 0;      ///< cumulated real interaction time at the end of it, s
+  rollout::Trajectory real;         ///< on the system
+  rollout::Trajectory predicted;    ///< mean-propagated rollout on the model that chose the policy
+  VectorXd theta;                   ///< policy parameters run (dim param_dim)
+  double real_return = 0;
+  double predicted_return = 0;      ///< mean over predicted_rollouts MC rollouts (NaN if random)
+  bool solved = false;
+  bool random_policy = false;       ///< episode 1 without a prior: random theta
+  VectorXd phi;                     ///< prior parameters of the model that chose the policy
+  model::ModelSummary model;        ///< the learning that preceded this episode (empty for ep. 1)
+  opt::CmaesSummary policy_search;  ///< the optimization that chose theta
+  double model_seconds = 0;         ///< model learning time before this episode, s
+  double policy_seconds = 0;        ///< policy optimization time, s
+  long evaluations = 0;             ///< policy evaluations (model rollouts / rollouts per eval)
+  long nonfinite_model_steps = 0;   ///< rollout steps stopped by non-finite model predictions
+};
+
+/// Live status for progress displays.
+struct Status {
+  int episode = 0;                  ///< episode being prepared (1-based)
+  std::string phase;                ///< "model", "policy" or "episode"
+  long evaluations = 0;             ///< evaluations in this phase so far
+  double best = 0;                  ///< best score in this phase (model score / predicted return)
+};
+
+/// Hooks through which the caller observes and steers a run. All are called on the caller's thread.
+struct BlackDropsCallbacks {
+  /// After each real episode, with its full record. Persist it here.
+  std::function<void(const EpisodeRecord&)> on_episode;
+  /// Frequently during model learning and policy search.
+  std::function<void(const Status&)> on_status;
+  /// Polled often; returning true interrupts the run after the current step (nothing recorded
+  /// is lost: on_episode has already been called for every finished episode).
+  std::function<bool()> should_stop;
+};
+
+/// Result of run_black_drops.
+struct BlackDropsSummary {
+  int episodes_done = 0;
+  bool interrupted = false;
+  int first_solved_episode = 0;   ///< 0 when never solved
+  double best_real_return = 0;
+  double seconds = 0;
+};
+
+/// Paper Algorithm 1 with the model variant of options.model.type:
+///   episode 1: with a prior, optimise the policy on the prior alone; without, random theta;
+///   then, for each next episode: learn the model on all transitions, optimise the policy on the
+///   model (mean return of MC rollouts, BIPOP-aCMA-ES from the best real episode's theta), run it.
+/// task, real system and policy prototype are borrowed for the call. prior may be null only for
+/// model type gp. Throws InvalidArgument on invalid options or mismatched dimensions; exceptions
+/// from callbacks propagate. Not thread-safe (uses parallel_for internally).
+BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
+                                  const rollout::System& real, const policy::Policy& policy,
+                                  std::shared_ptr<const model::MeanFunction> prior,
+                                  const model::PriorParameters& prior_parameters,
+                                  const BlackDropsOptions& options,
+                                  const BlackDropsCallbacks& callbacks = {});
+
+/// Maximises the mean model return over theta in [-b, b]^n with BIPOP-aCMA-ES starting from
+/// theta0; returns the CMA-ES summary (best_value is the NEGATED best return). Exposed for
+/// benchmarks and tests.
+opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
+                                  const policy::Policy& policy, const VectorXd& theta0,
+                                  const BlackDropsOptions& options, std::uint64_t seed,
+                                  const std::function<bool(const opt::CmaesProgress&)>& on_gen,
+                                  long* nonfinite_steps);
+
+}  // namespace drops::algo

@@ -1,0 +1,124 @@
+#pragma once
+/// \file BIPOP-aCMA-ES: CMA-ES with active covariance update and BIPOP restarts, box bounds,
+/// elitism and optional uncertainty handling (paper §IV-C; settings.md §5).
+/// References: Hansen & Ostermeier 2001; Jastrebski & Arnold 2006 (active update);
+/// Hansen 2009 "Benchmarking a BI-population CMA-ES on the BBOB-2009 function testbed" (BIPOP);
+/// Hansen et al. 2009 "A method for handling uncertainty in evolutionary optimization" (UH);
+/// Hansen, "The CMA Evolution Strategy: A Tutorial" (2016) for the default parameters.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace drops::opt {
+
+/// Options of Cmaes. Every field has a usable default.
+struct CmaesOptions {
+  /// Initial step size sigma0 (> 0), in the units of the parameters. 0 means "automatic": 0.3 of the
+  /// smallest box width when bounded, else 1.
+  double sigma0 = 0.0;
+  /// Population size lambda of the first run (>= 2); 0 means the default 4 + floor(3 ln n).
+  int lambda = 0;
+  /// Total budget of objective evaluations over all restarts (>= 1).
+  long max_evaluations = 10000;
+  /// Maximum number of restarts after the first run (>= 0). BIPOP alternates large populations
+  /// (lambda doubling) and small ones (Hansen 2009).
+  int max_restarts = 3;
+  /// Use BIPOP restarts; when false, restarts are IPOP (population doubling) only.
+  bool bipop = true;
+  /// Active covariance matrix update (negative weights, Jastrebski & Arnold 2006).
+  bool active = true;
+  /// Elitism: re-inject the best-ever candidate into each generation's population (replacing the
+  /// worst sample) so that the search cannot lose it (settings.md §5).
+  bool elitism = true;
+  /// Uncertainty handling (Hansen et al. 2009): re-evaluate a few candidates each generation and
+  /// increase sigma when the ranking is dominated by noise. For noisy objectives.
+  bool uncertainty_handling = false;
+  /// Stopping criteria of one run (standard values from the tutorial):
+  double tol_x = 1e-12;          ///< stop when all sigma * sqrt(C_ii) and sigma * p_c < tol_x
+  double tol_fun = 1e-12;        ///< stop when the range of recent best values is < tol_fun
+  double tol_hist_fun = 1e-12;   ///< stop when the range of the best values over 10 + 30n/lambda generations < it
+  double max_condition = 1e14;   ///< stop when cond(C) exceeds it (ConditionCov)
+  /// Stop the whole search as soon as a value <= this is reached (minimisation).
+  double stop_fitness = -1e300;
+  /// Seed of the optimizer's own random stream (sampling of candidates).
+  std::uint64_t seed = 1;
+  /// Evaluate the population in parallel (drops::parallel_for). Results do not depend on it.
+  bool parallel = true;
+  /// Returns true when every field is valid; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
+};
+
+/// Why a Cmaes::minimize call ended.
+enum class CmaesTermination {
+  kMaxEvaluations,   ///< budget exhausted
+  kMaxRestarts,      ///< last permitted run stopped by its own criteria
+  kStopFitness,      ///< reached options.stop_fitness
+  kCallback,         ///< the user callback asked to stop
+};
+
+/// Result of Cmaes::minimize.
+struct CmaesSummary {
+  Eigen::VectorXd best_x;        ///< best candidate ever evaluated (dim n), inside the bounds
+  double best_value = 0;         ///< objective value at best_x (as evaluated, noise included)
+  long evaluations = 0;          ///< objective evaluations used
+  int restarts = 0;              ///< restarts performed
+  int generations = 0;           ///< generations over all runs
+  CmaesTermination termination = CmaesTermination::kMaxEvaluations;
+  std::vector<std::string> run_stop_reasons;  ///< per run: "TolX", "TolHistFun", "EqualFunVals", ...
+  /// One line: "cmaes: best -12.3 after 10000 evaluations, 3 restarts (MaxEvaluations)".
+  std::string BriefReport() const;
+};
+
+/// Progress of a search, passed to the callback after every generation.
+struct CmaesProgress {
+  long evaluations;   ///< objective evaluations used so far (all runs)
+  int restarts;       ///< restarts performed so far (0 during the first run)
+  int generation;     ///< generations completed so far over all runs (1 after the first one)
+  double best_value;  ///< best value evaluated so far over all runs (never increases)
+  double sigma;       ///< current step size of the running run
+  int lambda;         ///< population size of the running run
+};
+
+/// Objective: value to MINIMISE at x (dim n). `stream` is a seed unique to this evaluation (derived
+/// from CmaesOptions::seed, the generation and the candidate index), to be used by stochastic
+/// objectives so that results do not depend on the evaluation order or thread count. Called
+/// concurrently from several threads when options.parallel is true: must be thread-safe.
+/// Non-finite values are treated as +infinity (worst).
+using Objective = std::function<double(const Eigen::VectorXd& x, std::uint64_t stream)>;
+
+/// Callback after each generation; return false to stop the search.
+using CmaesCallback = std::function<bool(const CmaesProgress&)>;
+
+/// Minimises `objective` from x0 (dim n >= 1) within the box [lower, upper] (both dim n, lower <
+/// upper; pass infinite bounds for an unbounded coordinate). Candidates outside the box are mapped
+/// in by a boundary transformation (piecewise quadratic, as in Hansen's reference code), so every
+/// evaluated point is inside the box. Deterministic for a given seed whatever the thread count.
+/// Throws InvalidArgument on size mismatch, invalid options, or x0 outside the box.
+CmaesSummary cmaes_minimize(const Objective& objective, const Eigen::VectorXd& x0,
+                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                            const CmaesOptions& options = {},
+                            const CmaesCallback& callback = nullptr);
+
+}  // namespace drops::opt
+
+namespace drops::opt {
+
+/// Objective evaluated on a whole population at once: values[k] (to MINIMISE) for xs[k], each with
+/// its own stream seed streams[k] (as for Objective). The callee parallelises as it likes but the
+/// values must not depend on the thread count. values is resized by the callee to xs.size().
+using BatchObjective = std::function<void(const std::vector<Eigen::VectorXd>& xs,
+                                          const std::vector<std::uint64_t>& streams,
+                                          std::vector<double>& values)>;
+
+/// Same search as cmaes_minimize, but each generation's candidates (and uncertainty-handling
+/// re-evaluations) are passed to `objective` in one call, so the callee can batch them (e.g.
+/// batched GP predictions across rollouts). options.parallel is ignored (the callee decides).
+CmaesSummary cmaes_minimize_batch(const BatchObjective& objective, const Eigen::VectorXd& x0,
+                                  const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                  const CmaesOptions& options = {},
+                                  const CmaesCallback& callback = nullptr);
+
+}  // namespace drops::opt

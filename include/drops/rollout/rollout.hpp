@@ -1,0 +1,65 @@
+#pragma once
+/// \file Episodes on a System and Monte-Carlo policy evaluation on a learned model (paper §IV-C).
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "drops/model/dynamics_model.hpp"
+#include "drops/policy/policy.hpp"
+#include "drops/rollout/task.hpp"
+
+namespace drops::rollout {
+
+/// Runs one episode of task.horizon() steps from task.initial_state() on `system` with `policy`:
+/// u_t = pi(observe(x_t)), x_{t+1} = system.step(x_t, u_t), r_t = reward(x_{t+1}).
+/// A non-finite state ends the episode early: the remaining states repeat the last finite one and
+/// earn reward 0, and *nonfinite_steps (if given) is incremented. Thread-safe if system is.
+Trajectory run_episode(const Task& task, const System& system, const policy::Policy& policy,
+                       Rng& rng, long* nonfinite_steps = nullptr);
+
+/// How a model rollout draws the next state difference from the predictive N(mu, sigma^2).
+struct RolloutOptions {
+  /// Monte-Carlo rollouts averaged per policy evaluation (>= 1; the reference used 1).
+  int rollouts = 1;
+  /// Draw dx ~ N(mu, sigma^2) per output; false propagates the mean only (deterministic).
+  bool sample = true;
+  /// Clip each standard-normal draw to [-clip, clip] (the reference clips at 1, i.e. mu +- sigma);
+  /// 0 disables clipping.
+  double clip = 1.0;
+  /// Rollouts advanced together through batched GP predictions (>= 1). Results do not depend on
+  /// the thread count; they may differ from batch = 1 by round-off only.
+  int batch = 8;
+};
+
+/// The learned model wrapped as a System, so imagined and real episodes share run_episode().
+/// step(): x + mu + sigma * z with z ~ N(0, 1) clipped as in options (or x + mu without sampling).
+class ModelSystem final : public System {
+ public:
+  ModelSystem(const model::DynamicsModel& model, const RolloutOptions& options)
+      : model_(model), options_(options) {}
+  VectorXd step(const VectorXd& x, const VectorXd& u, Rng& rng) const override;
+
+ private:
+  const model::DynamicsModel& model_;
+  RolloutOptions options_;
+};
+
+/// Counts kept while evaluating policies on a model (summed over threads after the loop).
+struct RolloutStats {
+  long rollouts = 0;         ///< model rollouts performed
+  long nonfinite_steps = 0;  ///< steps whose prediction was NaN/inf (the rollout stopped there)
+};
+
+/// Mean return of options.rollouts Monte-Carlo rollouts on `model` for each policy parameter vector
+/// thetas[k] (dim policy.param_dim()), using the random stream seeds[k] (rollout r uses
+/// derive_seed(seeds[k], {r})). Rollouts are batched (options.batch) and run in parallel; the
+/// result is independent of the thread count. Non-finite predictions stop that rollout (remaining
+/// rewards 0) and are counted in *stats. returns: resized to thetas.size().
+/// Throws InvalidArgument on size mismatch.
+void evaluate_policies(const Task& task, const model::DynamicsModel& model,
+                       const policy::Policy& policy, const std::vector<VectorXd>& thetas,
+                       const std::vector<std::uint64_t>& seeds, const RolloutOptions& options,
+                       VectorXd& returns, RolloutStats* stats = nullptr);
+
+}  // namespace drops::rollout

@@ -1,0 +1,56 @@
+#pragma once
+/// \file Interfaces of a learning problem: the Task (start state, observation, reward, success test),
+/// the System that plays the robot, and the Trajectory of an episode.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drops/core/rng.hpp"
+#include "drops/core/types.hpp"
+
+namespace drops::rollout {
+
+/// One episode: states x_0..x_H (H + 1 rows, dim E each), actions u_0..u_{H-1} (H rows, dim U),
+/// rewards r_1..r_H (r_t computed on the state reached after step t, paper eq. 3).
+struct Trajectory {
+  MatrixXd states;   ///< (H + 1) x E
+  MatrixXd actions;  ///< H x U
+  VectorXd rewards;  ///< H
+  /// Sum of the rewards.
+  double total_return() const { return rewards.sum(); }
+  /// The recorded transitions (x_t, u_t, x_{t+1} - x_t), t = 0..H-1.
+  std::vector<Transition> transitions() const;
+};
+
+/// Everything about a problem except its dynamics: dimensions, start state, horizon, the observation
+/// fed to the policy and the GP (e.g. angles as cos/sin), the reward and the success criterion.
+/// Immutable and thread-safe.
+class Task {
+ public:
+  virtual ~Task() = default;
+  virtual std::string name() const = 0;
+  virtual int state_dim() const = 0;        ///< E
+  virtual int action_dim() const = 0;       ///< U
+  virtual int observation_dim() const = 0;  ///< O
+  virtual int horizon() const = 0;          ///< H steps per episode
+  virtual double dt() const = 0;            ///< control period in s
+  virtual VectorXd initial_state() const = 0;  ///< x_0 (dim E)
+  /// Policy and model input computed from the raw state x (dim E); obs: dim O.
+  virtual void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const = 0;
+  /// Immediate reward of reaching state x (dim E).
+  virtual double reward(const VectorXd& x) const = 0;
+  /// Whether an episode solved the task (task-specific criterion).
+  virtual bool solved(const Trajectory& trajectory) const = 0;
+};
+
+/// The system a policy is run on: the "real" robot, or a learned model wrapped as a system.
+/// step() may be stochastic and draws from rng. Implementations are thread-safe for const calls.
+class System {
+ public:
+  virtual ~System() = default;
+  /// Next state from state x (dim E) under action u (dim U), held over one control period.
+  virtual VectorXd step(const VectorXd& x, const VectorXd& u, Rng& rng) const = 0;
+};
+
+}  // namespace drops::rollout

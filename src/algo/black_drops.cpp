@@ -1,0 +1,201 @@
+#include "drops/algo/black_drops.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "drops/core/errors.hpp"
+#include "drops/core/rng.hpp"
+
+namespace drops::algo {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Stream tags: each random stream of a run is derive_seed(seed, {episode, tag, ...}).
+enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPolicy = 3,
+                                 kPredicted = 4 };
+
+}  // namespace
+
+bool BlackDropsOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (episodes < 1) return fail("episodes must be >= 1");
+  if (!(theta_bound > 0)) return fail("theta_bound must be > 0");
+  if (prior_optimizations < 1) return fail("prior_optimizations must be >= 1");
+  if (predicted_rollouts < 1) return fail("predicted_rollouts must be >= 1");
+  if (rollouts.rollouts < 1) return fail("rollouts.rollouts must be >= 1");
+  if (rollouts.batch < 1) return fail("rollouts.batch must be >= 1");
+  std::string w;
+  if (!cmaes.IsValid(&w)) return fail("cmaes: " + w);
+  if (!model.rprop.IsValid(&w)) return fail("rprop: " + w);
+  return true;
+}
+
+opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
+                                  const policy::Policy& policy, const VectorXd& theta0,
+                                  const BlackDropsOptions& options, std::uint64_t seed,
+                                  const std::function<bool(const opt::CmaesProgress&)>& on_gen,
+                                  long* nonfinite_steps) {
+  const int n = policy.param_dim();
+  const VectorXd lower = VectorXd::Constant(n, -options.theta_bound);
+  const VectorXd upper = VectorXd::Constant(n, options.theta_bound);
+  opt::CmaesOptions co = options.cmaes;
+  co.seed = seed;
+  if (co.sigma0 <= 0) co.sigma0 = options.theta_bound;  // settings.md §5: sigma0 = b
+  std::vector<long> bad_per_call;
+  rollout::RolloutStats stats;
+  auto objective = [&](const std::vector<VectorXd>& xs, const std::vector<std::uint64_t>& streams,
+                       std::vector<double>& values) {
+    VectorXd returns;
+    rollout::evaluate_policies(task, model, policy, xs, streams, options.rollouts, returns, &stats);
+    values.resize(xs.size());
+    for (std::size_t k = 0; k < xs.size(); ++k) values[k] = -returns[static_cast<Eigen::Index>(k)];
+  };
+  auto summary = opt::cmaes_minimize_batch(objective, theta0.cwiseMax(lower).cwiseMin(upper),
+                                           lower, upper, co, on_gen);
+  if (nonfinite_steps) *nonfinite_steps += stats.nonfinite_steps;
+  return summary;
+}
+
+BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
+                                  const rollout::System& real, const policy::Policy& policy,
+                                  std::shared_ptr<const model::MeanFunction> prior,
+                                  const model::PriorParameters& prior_parameters,
+                                  const BlackDropsOptions& options,
+                                  const BlackDropsCallbacks& callbacks) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("Black-DROPS options: " + why);
+  if (!task) throw InvalidArgument("run_black_drops: task is null");
+  check_size("policy observation_dim vs task observation_dim", task->observation_dim(),
+             policy.observation_dim());
+  const auto t_run = Clock::now();
+  const bool with_prior = model::uses_prior(options.model.type);
+  auto model = model::make_model(options.model, task, prior, prior_parameters);
+
+  BlackDropsSummary summary;
+  std::vector<Transition> data;
+  VectorXd best_theta;
+  double best_return = -std::numeric_limits<double>::infinity();
+  const int n = policy.param_dim();
+  auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
+  auto status = [&](int episode, const char* phase, long evals, double best) {
+    if (callbacks.on_status) callbacks.on_status(Status{episode, phase, evals, best});
+  };
+
+  for (int episode = 1; episode <= options.episodes; ++episode) {
+    if (stop()) {
+      summary.interrupted = true;
+      break;
+    }
+    EpisodeRecord rec;
+    rec.episode = episode;
+    const std::uint64_t ep = static_cast<std::uint64_t>(episode);
+    std::unique_ptr<model::DynamicsModel> prior_only;
+    const model::DynamicsModel* planning_model = model.get();
+
+    // 1. Model: learn on all data (from episode 2 on); episode 1 plans on the prior alone.
+    if (episode == 1) {
+      if (with_prior) {
+        prior_only = model::make_prior_only_model(prior, prior_parameters);
+        planning_model = prior_only.get();
+      }
+    } else {
+      status(episode, "model", 0, 0);
+      rec.model = model->learn(data, [&](const std::string&, int evals, double best) {
+        status(episode, "model", evals, best);
+      });
+      rec.model_seconds = rec.model.seconds;
+    }
+    rec.phi = planning_model == model.get() ? model->phi() : prior_parameters.values;
+
+    // 2. Policy: optimise on the model (or draw at random without any model).
+    auto policy_copy = policy.clone();
+    const auto t_policy = Clock::now();
+    bool interrupted_search = false;
+    auto on_gen = [&](const opt::CmaesProgress& p) {
+      status(episode, "policy", p.evaluations, -p.best_value);
+      if (stop()) {
+        interrupted_search = true;
+        return false;
+      }
+      return true;
+    };
+    if (episode == 1 && !with_prior) {
+      Rng rng(derive_seed(options.seed, {ep, kRandomPolicy}));
+      rec.theta.resize(n);
+      for (int i = 0; i < n; ++i) rec.theta[i] = rng.uniform(-options.theta_bound, options.theta_bound);
+      rec.random_policy = true;
+    } else {
+      VectorXd theta0;
+      if (best_theta.size()) {
+        theta0 = best_theta;
+      } else {
+        Rng rng(derive_seed(options.seed, {ep, kRandomPolicy}));
+        theta0.resize(n);
+        for (int i = 0; i < n; ++i) theta0[i] = rng.uniform(-options.theta_bound, options.theta_bound);
+      }
+      const int runs = episode == 1 ? options.prior_optimizations : 1;
+      for (int run = 0; run < runs && !interrupted_search; ++run) {
+        auto s = optimize_policy(*task, *planning_model, policy, theta0, options,
+                                 derive_seed(options.seed, {ep, kPolicySearch,
+                                                            static_cast<std::uint64_t>(run)}),
+                                 on_gen, &rec.nonfinite_model_steps);
+        rec.evaluations += s.evaluations;
+        if (run == 0 || s.best_value < rec.policy_search.best_value) rec.policy_search = s;
+        theta0 = rec.policy_search.best_x;
+      }
+      rec.theta = rec.policy_search.best_x;
+    }
+    rec.policy_seconds = seconds_since(t_policy);
+    if (interrupted_search) {
+      summary.interrupted = true;
+      break;  // the half-optimised policy is not run: nothing partial is recorded
+    }
+    policy_copy->set_params(rec.theta);
+
+    // 3. Predicted behaviour on the planning model (mean propagation + MC estimate of the return).
+    if (!rec.random_policy) {
+      rollout::RolloutOptions mean_only = options.rollouts;
+      mean_only.sample = false;
+      rollout::ModelSystem ms(*planning_model, mean_only);
+      Rng unused(0);
+      rec.predicted = rollout::run_episode(*task, ms, *policy_copy, unused);
+      rollout::RolloutOptions mc = options.rollouts;
+      mc.rollouts = options.predicted_rollouts;
+      VectorXd ret;
+      rollout::evaluate_policies(*task, *planning_model, policy, {rec.theta},
+                                 {derive_seed(options.seed, {ep, kPredicted})}, mc, ret);
+      rec.predicted_return = ret[0];
+    } else {
+      rec.predicted_return = std::numeric_limits<double>::quiet_NaN();
+    }
+
+    // 4. Run on the real system and record.
+    status(episode, "episode", 0, 0);
+    Rng real_rng(derive_seed(options.seed, {ep, kRealEpisode}));
+    rec.real = rollout::run_episode(*task, real, *policy_copy, real_rng);
+    rec.real_return = rec.real.total_return();
+    rec.solved = task->solved(rec.real);
+    rec.interaction_time = episode * task->horizon() * task->dt();
+    for (auto& t : rec.real.transitions()) data.push_back(std::move(t));
+    if (rec.real_return > best_return) {
+      best_return = rec.real_return;
+      best_theta = rec.theta;
+    }
+    if (rec.solved && summary.first_solved_episode == 0) summary.first_solved_episode = episode;
+    summary.episodes_done = episode;
+    summary.best_real_return = best_return;
+    if (callbacks.on_episode) callbacks.on_episode(rec);
+  }
+  summary.seconds = seconds_since(t_run);
+  return summary;
+}
+
+}  // namespace drops::algo

@@ -1,0 +1,307 @@
+// Gaussian-process regression: factorisation, likelihood, analytic gradient and prediction
+// (Rasmussen & Williams 2006, Algorithm 2.1 and eq. 5.8-5.9; paper eq. 3-6).
+#include "drops/gp/gp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Cholesky>
+
+#include "drops/core/errors.hpp"
+
+namespace drops::gp {
+namespace {
+
+using Eigen::Index;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+constexpr double kDefaultNoiseVariance = 0.01;  // settings.md §3
+constexpr int kJitterRetries = 6;               // jitter 1e-9 * 10^k, k = 0..5
+constexpr double kJitterBase = 1e-9;
+
+// Grows a thread-local scratch buffer to at least n doubles (never shrinks, so repeated calls on GPs
+// of the same or smaller size do not allocate) and returns its start.
+double* scratch(std::vector<double>& buf, std::size_t n) {
+  if (buf.size() < n) buf.resize(n);
+  return buf.data();
+}
+
+// "where" of the first non-finite entry of m, for error messages.
+template <typename Derived>
+std::string first_non_finite(const Eigen::DenseBase<Derived>& m) {
+  for (Index j = 0; j < m.cols(); ++j)
+    for (Index i = 0; i < m.rows(); ++i)
+      if (!std::isfinite(m(i, j))) {
+        std::ostringstream os;
+        os << "(" << i << ", " << j << ") = " << m(i, j);
+        return os.str();
+      }
+  return "none";
+}
+
+// In-place inverse of a lower-triangular matrix whose strict upper part is zero. Recursive blocking
+// [A 0; B C]^-1 = [A^-1 0; -C^-1 B A^-1  C^-1] so that the work (n^3/3 flops) runs in triangular
+// matrix products.
+void invert_lower(Eigen::Ref<MatrixXd> A) {
+  const Index n = A.rows();
+  if (n <= 48) {
+    MatrixXd I = MatrixXd::Identity(n, n);
+    A.triangularView<Eigen::Lower>().solveInPlace(I);
+    A = I;
+    return;
+  }
+  const Index h = n / 2;
+  invert_lower(A.topLeftCorner(h, h));
+  invert_lower(A.bottomRightCorner(n - h, n - h));
+  MatrixXd T = A.bottomLeftCorner(n - h, h) * A.topLeftCorner(h, h).triangularView<Eigen::Lower>();
+  auto B = A.bottomLeftCorner(n - h, h);
+  B.setZero();
+  B.noalias() -= A.bottomRightCorner(n - h, n - h).triangularView<Eigen::Lower>() * T;
+}
+
+}  // namespace
+
+Gp::Gp(int input_dim)
+    : input_dim_(input_dim),
+      kernel_(input_dim > 0 ? input_dim : 0),
+      log_sigma_n_(0.5 * std::log(kDefaultNoiseVariance)) {
+  if (input_dim < 1) {
+    throw InvalidArgument("Gp: input dimension: expected >= 1, got " + std::to_string(input_dim));
+  }
+}
+
+int Gp::input_dim() const { return input_dim_; }
+int Gp::size() const { return static_cast<int>(X_.rows()); }
+
+Eigen::VectorXd Gp::h_params() const {
+  VectorXd h(input_dim_ + 2);
+  h.head(input_dim_) = kernel_.length_scales.array().log().matrix();
+  h[input_dim_] = 0.5 * std::log(kernel_.signal_variance);
+  h[input_dim_ + 1] = log_sigma_n_;
+  return h;
+}
+
+void Gp::set_h_params(const Eigen::VectorXd& h) {
+  check_size("Gp::set_h_params: h (D + 2)", input_dim_ + 2, h.size());
+  if (!h.allFinite()) {
+    throw InvalidArgument("Gp::set_h_params: h: expected finite values, got non-finite entry " +
+                          first_non_finite(h));
+  }
+  // exp(2 h) must stay a positive normal double: |h| < ~350.
+  for (Index i = 0; i < h.size(); ++i) {
+    const double v = std::exp(2.0 * h[i]);
+    if (!std::isfinite(v) || !std::isnormal(v)) {
+      std::ostringstream os;
+      os << "Gp::set_h_params: h[" << i << "]: expected a log value with finite, non-zero exp(2 h), got "
+         << h[i];
+      throw InvalidArgument(os.str());
+    }
+  }
+  apply_h(h);
+}
+
+void Gp::apply_h(const Eigen::VectorXd& h) {
+  SquaredExpArd k(input_dim_);
+  k.length_scales = h.head(input_dim_).array().exp().matrix();
+  k.signal_variance = std::exp(2.0 * h[input_dim_]);
+  const double log_sn = h[input_dim_ + 1];
+  if (X_.rows() == 0) {
+    kernel_ = std::move(k);
+    log_sigma_n_ = log_sn;
+    return;
+  }
+  factorise(k, log_sn, X_, y_);
+}
+
+const SquaredExpArd& Gp::kernel() const { return kernel_; }
+double Gp::noise_variance() const { return std::exp(2.0 * log_sigma_n_); }
+
+void Gp::compute(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
+  check_size("Gp::compute: X columns (input dimension)", input_dim_, X.cols());
+  check_size("Gp::compute: y (one target per row of X)", X.rows(), y.size());
+  if (!X.allFinite()) {
+    throw InvalidArgument("Gp::compute: X: expected finite values, got " + first_non_finite(X));
+  }
+  if (!y.allFinite()) {
+    throw InvalidArgument("Gp::compute: y: expected finite values, got " + first_non_finite(y));
+  }
+  factorise(kernel_, log_sigma_n_, X, y);
+}
+
+void Gp::factorise(const SquaredExpArd& kernel, double log_sigma_n, const Eigen::MatrixXd& X,
+                   const Eigen::VectorXd& y) {
+  const Index n = X.rows();
+  const double sf2 = kernel.signal_variance;
+  const double sn2 = std::exp(2.0 * log_sigma_n);
+
+  MatrixXd Xs = (X.array().rowwise() / kernel.length_scales.transpose().array()).matrix();
+  VectorXd sq = Xs.rowwise().squaredNorm();
+  MatrixXd Kf(n, n);
+  if (n > 0) {
+    // Squared distances |a|^2 + |b|^2 - 2 a.b (clamped at 0), then the kernel; exactly symmetric.
+    Kf.noalias() = Xs * Xs.transpose();
+    Kf = ((((Kf.array() * -2.0).colwise() + sq.array()).rowwise() + sq.transpose().array())
+              .max(0.0) *
+          -0.5)
+             .exp() *
+         sf2;
+    Kf.triangularView<Eigen::StrictlyUpper>() = Kf.transpose();
+    Kf.diagonal().setConstant(sf2);
+  }
+
+  MatrixXd L(n, n);
+  double jitter = 0.0;
+  bool ok = (n == 0);
+  for (int k = -1; k < kJitterRetries && !ok; ++k) {
+    jitter = k < 0 ? 0.0 : kJitterBase * std::pow(10.0, k);
+    L = Kf;
+    L.diagonal().array() += sn2 + jitter;
+    Eigen::LLT<Eigen::Ref<MatrixXd>, Eigen::Lower> llt(L);
+    ok = llt.info() == Eigen::Success && L.diagonal().allFinite() &&
+         (L.diagonal().array() > 0.0).all();
+  }
+  if (!ok) {
+    std::ostringstream os;
+    os << "Gp: Cholesky factorisation of K + sigma_n^2 I failed for N = " << n
+       << " points (sigma_f^2 = " << sf2 << ", sigma_n^2 = " << sn2
+       << ", length scales = " << kernel.length_scales.transpose()
+       << ") even with a diagonal jitter up to " << kJitterBase * std::pow(10.0, kJitterRetries - 1)
+       << "; the inputs are probably duplicated with near-zero noise or the hyper-parameters are "
+          "extreme";
+    throw NumericalError(os.str());
+  }
+
+  VectorXd alpha = y;
+  if (n > 0) {
+    L.triangularView<Eigen::Lower>().solveInPlace(alpha);
+    L.triangularView<Eigen::Lower>().transpose().solveInPlace(alpha);
+  }
+
+  // Commit (nothing below throws except on allocation failure).
+  kernel_ = kernel;
+  log_sigma_n_ = log_sigma_n;
+  if (&X != &X_) X_ = X;
+  if (&y != &y_) y_ = y;
+  Xs_ = std::move(Xs);
+  Xs_sqnorm_ = std::move(sq);
+  Kf_ = std::move(Kf);
+  L_ = std::move(L);
+  alpha_ = std::move(alpha);
+  jitter_ = jitter;
+}
+
+void Gp::set_targets(const Eigen::VectorXd& y) {
+  check_size("Gp::set_targets: y (one target per training point)", X_.rows(), y.size());
+  if (!y.allFinite()) {
+    throw InvalidArgument("Gp::set_targets: y: expected finite values, got " + first_non_finite(y));
+  }
+  y_ = y;
+  alpha_ = y;
+  if (alpha_.size() > 0) {
+    L_.triangularView<Eigen::Lower>().solveInPlace(alpha_);
+    L_.triangularView<Eigen::Lower>().transpose().solveInPlace(alpha_);
+  }
+}
+
+double Gp::log_marginal_likelihood() const {
+  const Index n = X_.rows();
+  if (n == 0) return 0.0;
+  return -0.5 * y_.dot(alpha_) - L_.diagonal().array().log().sum() -
+         0.5 * static_cast<double>(n) * std::log(2.0 * std::numbers::pi);
+}
+
+Eigen::VectorXd Gp::log_marginal_likelihood_gradient() const {
+  const Index n = X_.rows();
+  const Index D = input_dim_;
+  VectorXd g = VectorXd::Zero(D + 2);
+  if (n == 0) return g;
+
+  // K^-1 = L^-T L^-1 from the triangular inverse (lower triangle), then W = alpha alpha^T - K^-1.
+  MatrixXd Linv = L_.triangularView<Eigen::Lower>();
+  invert_lower(Linv);
+  MatrixXd W = MatrixXd::Zero(n, n);
+  W.selfadjointView<Eigen::Lower>().rankUpdate(Linv.transpose(), -1.0);
+  W.selfadjointView<Eigen::Lower>().rankUpdate(alpha_, 1.0);
+  W.triangularView<Eigen::StrictlyUpper>() = W.transpose();
+  const double trace_w = W.trace();
+
+  // With M = W o Kf (element-wise), dK/dlog l_d = Kf o (a_i - a_j)^2 (a = x_d / l_d):
+  //   g_d = 1/2 sum_ij M_ij (a_i - a_j)^2 = sum_i a_i^2 r_i - a^T M a,  r = M 1,
+  // with a centred (translation invariance) to limit cancellation. dK/dlog sigma_f = 2 Kf and
+  // dK/dlog sigma_n = 2 sigma_n^2 I give g_f = sum_ij M_ij and g_n = sigma_n^2 tr(W).
+  W.array() *= Kf_.array();
+  const VectorXd r = W.rowwise().sum();
+  const MatrixXd Xc = Xs_.rowwise() - Xs_.colwise().mean();
+  MatrixXd MX(n, D);
+  MX.noalias() = W * Xc;
+  for (Index d = 0; d < D; ++d) {
+    g[d] = (Xc.col(d).array().square() * r.array()).sum() - Xc.col(d).dot(MX.col(d));
+  }
+  g[D] = r.sum();
+  g[D + 1] = noise_variance() * trace_w;
+  return g;
+}
+
+void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const {
+  check_size("Gp::predict: x (input dimension)", input_dim_, x.size());
+  const double sf2 = kernel_.signal_variance;
+  const Index n = X_.rows();
+  if (n == 0) {
+    mean = 0.0;
+    variance = sf2;
+    return;
+  }
+  thread_local std::vector<double> buf;
+  double* p = scratch(buf, static_cast<std::size_t>(n + input_dim_));
+  Eigen::Map<VectorXd> xs(p, input_dim_);
+  Eigen::Map<VectorXd> k(p + input_dim_, n);
+  xs = x.cwiseQuotient(kernel_.length_scales);
+  const double qn = xs.squaredNorm();
+  k.noalias() = Xs_ * xs;
+  k = (((k.array() * -2.0 + qn) + Xs_sqnorm_.array()).max(0.0) * -0.5).exp() * sf2;
+  mean = k.dot(alpha_);
+  L_.triangularView<Eigen::Lower>().solveInPlace(k);
+  variance = std::max(0.0, sf2 - k.squaredNorm());
+}
+
+void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
+                       Eigen::VectorXd& variance) const {
+  check_size("Gp::predict_batch: Xq columns (input dimension)", input_dim_, Xq.cols());
+  const Index B = Xq.rows();
+  const Index n = X_.rows();
+  const Index D = input_dim_;
+  const double sf2 = kernel_.signal_variance;
+  mean.resize(B);
+  variance.resize(B);
+  if (B == 0) return;
+  if (n == 0) {
+    mean.setZero();
+    variance.setConstant(sf2);
+    return;
+  }
+  thread_local std::vector<double> buf;
+  double* p = scratch(buf, static_cast<std::size_t>(B * D + B + n * B));
+  Eigen::Map<MatrixXd> Q(p, B, D);
+  Eigen::Map<VectorXd> qn(p + B * D, B);
+  Eigen::Map<MatrixXd> KT(p + B * D + B, n, B);  // Kq^T: one query per column
+  Q = (Xq.array().rowwise() / kernel_.length_scales.transpose().array()).matrix();
+  qn = Q.rowwise().squaredNorm();
+  KT.noalias() = Xs_ * Q.transpose();
+  KT = ((((KT.array() * -2.0).rowwise() + qn.transpose().array()).colwise() + Xs_sqnorm_.array())
+            .max(0.0) *
+        -0.5)
+           .exp() *
+       sf2;
+  mean.noalias() = KT.transpose() * alpha_;
+  L_.triangularView<Eigen::Lower>().solveInPlace(KT);
+  variance = (sf2 - KT.colwise().squaredNorm().transpose().array()).max(0.0).matrix();
+}
+
+const Eigen::VectorXd& Gp::alpha() const { return alpha_; }
+
+}  // namespace drops::gp

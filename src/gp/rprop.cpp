@@ -1,0 +1,150 @@
+// iRprop- maximisation of the GP log marginal likelihood (Igel & Huesken 2000, "Improving the Rprop
+// learning algorithm", Fig. 3 "iRprop-"; settings.md §3).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+#include "drops/core/errors.hpp"
+#include "drops/gp/gp.hpp"
+
+namespace drops::gp {
+namespace {
+
+// Box kept on the log hyper-parameters during the search (documented in gp.hpp).
+constexpr double kLogMin = -10.0;
+constexpr double kLogMax = 10.0;
+const double kLogNoiseStdMin = std::log(1e-5);
+
+bool fail(std::string* why, const std::string& msg) {
+  if (why != nullptr) *why = msg;
+  return false;
+}
+
+}  // namespace
+
+bool RpropOptions::IsValid(std::string* why) const {
+  std::ostringstream os;
+  if (max_iterations < 1) {
+    os << "max_iterations: expected >= 1, got " << max_iterations;
+    return fail(why, os.str());
+  }
+  if (!(std::isfinite(delta0) && delta0 > 0.0)) {
+    os << "delta0: expected a finite value > 0, got " << delta0;
+    return fail(why, os.str());
+  }
+  if (!(std::isfinite(delta_min) && delta_min > 0.0 && delta_min <= delta0)) {
+    os << "delta_min: expected a finite value in (0, delta0 = " << delta0 << "], got " << delta_min;
+    return fail(why, os.str());
+  }
+  if (!(std::isfinite(delta_max) && delta_max >= delta0)) {
+    os << "delta_max: expected a finite value >= delta0 = " << delta0 << ", got " << delta_max;
+    return fail(why, os.str());
+  }
+  if (!(eta_minus > 0.0 && eta_minus < 1.0)) {
+    os << "eta_minus: expected a value in (0, 1), got " << eta_minus;
+    return fail(why, os.str());
+  }
+  if (!(std::isfinite(eta_plus) && eta_plus > 1.0)) {
+    os << "eta_plus: expected a finite value > 1, got " << eta_plus;
+    return fail(why, os.str());
+  }
+  if (!(std::isfinite(tolerance) && tolerance >= 0.0)) {
+    os << "tolerance: expected a finite value >= 0, got " << tolerance;
+    return fail(why, os.str());
+  }
+  if (patience < 1) {
+    os << "patience: expected >= 1, got " << patience;
+    return fail(why, os.str());
+  }
+  if (why != nullptr) why->clear();
+  return true;
+}
+
+RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) {
+    throw InvalidArgument("Gp::optimize_h_params: invalid RpropOptions: " + why);
+  }
+  if (size() == 0) {
+    throw InvalidArgument(
+        "Gp::optimize_h_params: training points: expected N >= 1 (call compute first), got 0");
+  }
+  const Eigen::Index P = input_dim_ + 2;
+  Eigen::VectorXd lo = Eigen::VectorXd::Constant(P, kLogMin);
+  Eigen::VectorXd hi = Eigen::VectorXd::Constant(P, kLogMax);
+  lo[P - 1] = kLogNoiseStdMin;
+
+  RpropSummary summary;
+  // Warm start: the current h is already factorised.
+  Eigen::VectorXd h = h_params();
+  double f = log_marginal_likelihood();
+  Eigen::VectorXd g = log_marginal_likelihood_gradient();
+  summary.iterations = 1;
+  summary.initial_log_likelihood = f;
+
+  Eigen::VectorXd best_h = h, best_g = g;
+  double best_f = std::isfinite(f) && g.allFinite() ? f : -std::numeric_limits<double>::infinity();
+  if (!(std::isfinite(f) && g.allFinite())) g.setZero();
+  Eigen::VectorXd delta = Eigen::VectorXd::Constant(P, options.delta0);
+  Eigen::VectorXd g_prev = Eigen::VectorXd::Zero(P);
+  std::vector<double> best_history{best_f};
+  const auto patience = static_cast<std::size_t>(options.patience);
+
+  while (true) {
+    // iRprop- step (ascent on f).
+    for (Eigen::Index i = 0; i < P; ++i) {
+      const double s = g_prev[i] * g[i];
+      if (s > 0.0) {
+        delta[i] = std::min(delta[i] * options.eta_plus, options.delta_max);
+      } else if (s < 0.0) {
+        delta[i] = std::max(delta[i] * options.eta_minus, options.delta_min);
+        g[i] = 0.0;
+      }
+      const double step = g[i] > 0.0 ? delta[i] : (g[i] < 0.0 ? -delta[i] : 0.0);
+      const double target = h[i] + step;
+      h[i] = std::clamp(target, lo[i], hi[i]);
+      // A parameter pinned at the box keeps a moderate step, so that it can come back quickly and
+      // does not jump across the box when its gradient changes sign.
+      if (h[i] != target) delta[i] = std::min(delta[i], options.delta0);
+      g_prev[i] = g[i];
+    }
+    if (delta.maxCoeff() <= options.delta_min) break;  // every step at the floor: converged
+    if (summary.iterations >= options.max_iterations) break;
+
+    ++summary.iterations;
+    bool ok = true;
+    try {
+      apply_h(h);
+      f = log_marginal_likelihood();
+      g = log_marginal_likelihood_gradient();
+      ok = std::isfinite(f) && g.allFinite();
+    } catch (const NumericalError&) {
+      ok = false;
+    }
+    if (!ok) {
+      // Treat the iterate as f = -inf: back to the best point with smaller steps.
+      ++summary.cholesky_failures;
+      delta = (delta * options.eta_minus).cwiseMax(options.delta_min);
+      h = best_h;
+      g = best_g;
+      g_prev.setZero();
+    } else if (f > best_f) {
+      best_f = f;
+      best_h = h;
+      best_g = g;
+    }
+    best_history.push_back(best_f);
+    if (options.tolerance > 0.0 && best_history.size() > patience &&
+        best_f - best_history[best_history.size() - 1 - patience] < options.tolerance) {
+      break;
+    }
+  }
+
+  apply_h(best_h);  // keep the best iterate (it factorised before, so this succeeds)
+  summary.final_log_likelihood = log_marginal_likelihood();
+  return summary;
+}
+
+}  // namespace drops::gp

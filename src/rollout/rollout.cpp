@@ -1,0 +1,131 @@
+#include "drops/rollout/rollout.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "drops/core/errors.hpp"
+#include "drops/core/parallel.hpp"
+
+namespace drops::rollout {
+
+Trajectory run_episode(const Task& task, const System& system, const policy::Policy& policy,
+                       Rng& rng, long* nonfinite_steps) {
+  const int H = task.horizon(), E = task.state_dim(), U = task.action_dim();
+  check_size("policy observation_dim vs task", task.observation_dim(), policy.observation_dim());
+  check_size("policy action_dim vs task", U, policy.action_dim());
+  Trajectory tr;
+  tr.states.resize(H + 1, E);
+  tr.actions.setZero(H, U);
+  tr.rewards.setZero(H);
+  VectorXd x = task.initial_state(), obs(task.observation_dim()), u(U);
+  tr.states.row(0) = x.transpose();
+  bool alive = true;
+  for (int t = 0; t < H; ++t) {
+    if (alive) {
+      task.observe(x, obs);
+      policy.act(obs, u);
+      VectorXd next = system.step(x, u, rng);
+      if (!next.allFinite()) {
+        alive = false;
+        if (nonfinite_steps) ++*nonfinite_steps;
+      } else {
+        x = std::move(next);
+        tr.rewards[t] = task.reward(x);
+      }
+      tr.actions.row(t) = u.transpose();
+    }
+    tr.states.row(t + 1) = x.transpose();
+  }
+  return tr;
+}
+
+namespace {
+inline double draw(Rng& rng, double clip) {
+  const double z = rng.normal();
+  return clip > 0 ? std::clamp(z, -clip, clip) : z;
+}
+}  // namespace
+
+VectorXd ModelSystem::step(const VectorXd& x, const VectorXd& u, Rng& rng) const {
+  Prediction p;
+  model_.predict(x, u, p);
+  VectorXd next = x + p.mean;
+  if (options_.sample)
+    for (Eigen::Index i = 0; i < next.size(); ++i)
+      next[i] += std::sqrt(std::max(0.0, p.var[i])) * draw(rng, options_.clip);
+  return next;
+}
+
+void evaluate_policies(const Task& task, const model::DynamicsModel& model,
+                       const policy::Policy& policy, const std::vector<VectorXd>& thetas,
+                       const std::vector<std::uint64_t>& seeds, const RolloutOptions& options,
+                       VectorXd& returns, RolloutStats* stats) {
+  check_size("evaluate_policies seeds vs thetas", static_cast<long>(thetas.size()),
+             static_cast<long>(seeds.size()));
+  if (options.rollouts < 1 || options.batch < 1)
+    throw InvalidArgument("evaluate_policies: rollouts and batch must be >= 1");
+  const int H = task.horizon(), E = task.state_dim(), U = task.action_dim(),
+            O = task.observation_dim();
+  const std::size_t K = thetas.size();
+  const std::size_t R = static_cast<std::size_t>(options.rollouts);
+  const std::size_t lanes = K * R;
+  const std::size_t B = static_cast<std::size_t>(options.batch);
+  const std::size_t chunks = (lanes + B - 1) / B;
+  std::vector<double> lane_return(lanes, 0.0);
+  std::vector<long> chunk_bad(chunks, 0);
+  parallel_for(chunks, [&](std::size_t c) {
+    const std::size_t begin = c * B, end = std::min(lanes, begin + B);
+    const Eigen::Index n = static_cast<Eigen::Index>(end - begin);
+    std::vector<std::unique_ptr<policy::Policy>> pols;
+    std::vector<Rng> rngs;
+    for (std::size_t l = begin; l < end; ++l) {
+      const std::size_t k = l / R, r = l % R;
+      auto p = policy.clone();
+      p->set_params(thetas[k]);
+      pols.push_back(std::move(p));
+      rngs.emplace_back(derive_seed(seeds[k], {r}));
+    }
+    MatrixXd X(n, E), Uc(n, U), mean, var;
+    const VectorXd x0 = task.initial_state();
+    for (Eigen::Index b = 0; b < n; ++b) X.row(b) = x0.transpose();
+    std::vector<char> alive(static_cast<std::size_t>(n), 1);
+    VectorXd x(E), obs(O), u(U);
+    for (int t = 0; t < H; ++t) {
+      for (Eigen::Index b = 0; b < n; ++b) {
+        x = X.row(b).transpose();
+        task.observe(x, obs);
+        pols[static_cast<std::size_t>(b)]->act(obs, u);
+        Uc.row(b) = u.transpose();
+      }
+      model.predict_batch(X, Uc, mean, var);
+      for (Eigen::Index b = 0; b < n; ++b) {
+        if (!alive[static_cast<std::size_t>(b)]) continue;
+        Rng& rng = rngs[static_cast<std::size_t>(b)];
+        for (int i = 0; i < E; ++i) {
+          double d = mean(b, i);
+          if (options.sample) d += std::sqrt(std::max(0.0, var(b, i))) * draw(rng, options.clip);
+          x[i] = X(b, i) + d;
+        }
+        if (!x.allFinite()) {
+          alive[static_cast<std::size_t>(b)] = 0;
+          ++chunk_bad[c];
+          continue;
+        }
+        X.row(b) = x.transpose();
+        lane_return[begin + static_cast<std::size_t>(b)] += task.reward(x);
+      }
+    }
+  });
+  returns.resize(static_cast<Eigen::Index>(K));
+  for (std::size_t k = 0; k < K; ++k) {
+    double s = 0;
+    for (std::size_t r = 0; r < R; ++r) s += lane_return[k * R + r];
+    returns[static_cast<Eigen::Index>(k)] = s / static_cast<double>(R);
+  }
+  if (stats) {
+    stats->rollouts += static_cast<long>(lanes);
+    for (long b : chunk_bad) stats->nonfinite_steps += b;
+  }
+}
+
+}  // namespace drops::rollout
