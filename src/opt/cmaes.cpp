@@ -18,14 +18,14 @@
 //   cumulative step-size adaptation, rank-one + rank-mu update, and the tutorial's active update
 //   (negative recombination weights for the worst half, scaled by min(alpha_mu^-, alpha_mueff^-,
 //   alpha_posdef^-), and multiplied by n / ||C^{-1/2} y||^2 in the covariance update).
-// - The search runs in an unconstrained "genotype" space; each sample x is mapped into the box by the
-//   piecewise-quadratic transformation T (linear in the interior, quadratic next to each bound,
-//   periodic/mirrored beyond), and the objective is evaluated at T(x). Start points are mapped back
-//   by the inverse of T so that T(m0) = x0.
-// - Elitism re-injects the best candidate of the current run (the best-ever of this run) in place of
-//   the worst sample of a generation, with y = (x_best - m) / sigma, whose Mahalanobis norm is capped
-//   at sqrt(n) + 2n/(n+2) (Hansen 2011, "Injecting external solutions into CMA-ES"). The best over all
-//   runs is tracked separately and reported.
+// - The search runs in an unconstrained "genotype" space; each sample x is mapped into the box by
+//   the piecewise-quadratic transformation T (linear in the interior, quadratic next to each
+//   bound, periodic/mirrored beyond), and the objective is evaluated at T(x). Start points are
+//   mapped back by the inverse of T so that T(m0) = x0.
+// - Elitism re-injects the best candidate of the current run (the best-ever of this run) in place
+//   of the worst sample of a generation, with y = (x_best - m) / sigma, whose Mahalanobis norm is
+//   capped at sqrt(n) + 2n/(n+2) (Hansen 2011, "Injecting external solutions into CMA-ES"). The
+//   best over all runs is tracked separately and reported.
 // - All random numbers come from one Rng on the calling thread; the objective gets a per-evaluation
 //   stream derive_seed(seed, {run, generation, index}) (index >= lambda for re-evaluations).
 
@@ -128,7 +128,7 @@ struct Params {
   VectorXd w;  // lambda weights, positive ones sum to 1; negative ones (active) scaled
   double sum_w = 1;
   double mueff = 1, cc = 0, cs = 0, c1 = 0, cmu = 0, damps = 1, chin = 1;
-  double eigen_gap = 1;  // generations between eigendecompositions
+  double eigen_gap = 1;  // generations between two eigendecompositions of C
 };
 
 Params make_params(int n, int lambda, bool active) {
@@ -170,8 +170,10 @@ Params make_params(int n, int lambda, bool active) {
   p.w.resize(lambda);
   for (int i = 0; i < lambda; ++i) p.w(i) = wp(i) >= 0 ? wp(i) / spos : wp(i) * neg_scale;
   p.sum_w = p.w.sum();
-  // Tutorial: update B and D when (evaluations since last) > lambda / (c1 + cmu) / n / 10.
-  p.eigen_gap = 1.0 / ((p.c1 + p.cmu) * dn * 10.0);
+  // Lazy eigendecomposition: every lambda / (c1 + cmu) / n / 10 generations (the usual O(n^2)
+  // amortisation), but at most 0.1 / (c1 + cmu) generations, so that C never changes by more than
+  // about 10% of its memory between two decompositions (matters for lambda > n, e.g. IPOP runs).
+  p.eigen_gap = std::min(1.0, lambda / dn) / (10.0 * (p.c1 + p.cmu));
   return p;
 }
 
@@ -215,7 +217,8 @@ double uncertainty_measure(const std::vector<double>& f, const std::vector<doubl
 
 // Shared state of one cmaes_minimize call.
 struct Search {
-  const Objective& objective;
+  const Objective* objective = nullptr;   // one candidate per call (cmaes_minimize)
+  const BatchObjective* batch = nullptr;  // whole batches (cmaes_minimize_batch)
   const CmaesOptions& options;
   const CmaesCallback& callback;
   Box box;
@@ -225,25 +228,55 @@ struct Search {
   bool has_best = false;
   bool global_stop = false;
 
-  Search(const Objective& obj, const CmaesOptions& opt, const CmaesCallback& cb, Box b, int dim)
-      : objective(obj), options(opt), callback(cb), box(std::move(b)), n(dim), rng(opt.seed) {}
+  Search(const Objective* obj, const BatchObjective* bat, const CmaesOptions& opt,
+         const CmaesCallback& cb, Box b, int dim)
+      : objective(obj),
+        batch(bat),
+        options(opt),
+        callback(cb),
+        box(std::move(b)),
+        n(dim),
+        rng(opt.seed) {}
 
   // Evaluates pheno[i] for i in [0, count) with streams {run, gen, offset + i}.
   void evaluate(const std::vector<VectorXd>& pheno, int count, int offset, int run, int gen,
                 std::vector<double>& out) {
-    out.assign(count, kInf);
-    auto body = [&](std::size_t i) {
-      const std::uint64_t stream = derive_seed(
-          options.seed, {static_cast<std::uint64_t>(run), static_cast<std::uint64_t>(gen),
-                         static_cast<std::uint64_t>(offset) + i});
-      out[i] = sanitize(objective(pheno[i], stream));
-    };
-    if (options.parallel) {
-      parallel_for(static_cast<std::size_t>(count), body);
+    std::vector<std::uint64_t> streams(count);
+    for (int i = 0; i < count; ++i)
+      streams[i] = derive_seed(options.seed,
+                               {static_cast<std::uint64_t>(run), static_cast<std::uint64_t>(gen),
+                                static_cast<std::uint64_t>(offset + i)});
+    if (batch) {
+      const std::vector<VectorXd> xs(pheno.begin(), pheno.begin() + count);
+      out.clear();
+      (*batch)(xs, streams, out);
+      if (static_cast<int>(out.size()) != count)
+        throw InvalidArgument("cmaes_minimize_batch: objective returned " +
+                              std::to_string(out.size()) + " values for " + std::to_string(count) +
+                              " candidates");
+      for (double& v : out) v = sanitize(v);
     } else {
-      for (int i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
+      out.assign(count, kInf);
+      auto body = [&](std::size_t i) { out[i] = sanitize((*objective)(pheno[i], streams[i])); };
+      if (options.parallel) {
+        parallel_for(static_cast<std::size_t>(count), body);
+      } else {
+        for (int i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
+      }
     }
     summary.evaluations += count;
+  }
+
+  // Calls the user callback (if any) after a generation; false when it asks to stop.
+  bool report(double sigma, int lambda) {
+    if (!callback) return true;
+    const CmaesProgress progress{summary.evaluations,
+                                 summary.restarts,
+                                 summary.generations,
+                                 summary.best_value,
+                                 sigma,
+                                 lambda};
+    return callback(progress);
   }
 
   void offer_global(const VectorXd& pheno, double value) {
@@ -281,7 +314,8 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
   std::deque<double> hist_best;
   const int equal_len = 10 + n;
   std::deque<bool> hist_equal;
-  const double max_iter = 100.0 + 150.0 * (n + 3.0) * (n + 3.0) / std::sqrt(static_cast<double>(lambda));
+  const double max_iter =
+      100.0 + 150.0 * (n + 3.0) * (n + 3.0) / std::sqrt(static_cast<double>(lambda));
   const int nre = options.uncertainty_handling ? std::max(1, lambda / 10) : 0;
   const double alpha_sigma = 1.0 + 2.0 / (n + 10.0);
   const double cy = std::sqrt(static_cast<double>(n)) + 2.0 * n / (n + 2.0);
@@ -305,7 +339,8 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
       C = 0.5 * (C + C.transpose()).eval();
       Eigen::SelfAdjointEigenSolver<MatrixXd> es(C);
       const VectorXd ev = es.eigenvalues();
-      if (es.info() != Eigen::Success || !ev.allFinite() || ev.minCoeff() <= 0.0) return "ConditionCov";
+      if (es.info() != Eigen::Success || !ev.allFinite() || ev.minCoeff() <= 0.0)
+        return "ConditionCov";
       B = es.eigenvectors();
       D = ev.cwiseSqrt();
       inv_sqrt_c = B * D.cwiseInverse().asDiagonal() * B.transpose();
@@ -327,6 +362,7 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
     for (int k = 0; k < count; ++k) offer_global(pheno[k], f[k]);
     if (count < lambda) {
       ++summary.generations;
+      report(sigma, lambda);  // the search ends here whatever the answer
       global_stop = true;
       summary.termination = CmaesTermination::kMaxEvaluations;
       return "MaxFunEvals";
@@ -343,35 +379,48 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
     }
     if (has_best && summary.best_value <= options.stop_fitness) {
       ++summary.generations;
+      report(sigma, lambda);  // the search ends here whatever the answer
       global_stop = true;
       summary.termination = CmaesTermination::kStopFitness;
       return "StopFitness";
     }
 
-    // Elitism: re-inject the run's best-so-far in place of the worst sample when it beats this
-    // generation's best.
-    const double gen_best = *std::min_element(fr.begin(), fr.end());
-    if (options.elitism && run_has_best && run_best_value < gen_best) {
-      int worst = 0;
-      for (int k = 1; k < lambda; ++k)
-        if (fr[k] >= fr[worst]) worst = k;
-      VectorXd y = (run_best_geno - m) / sigma;
-      const double mnorm = (inv_sqrt_c * y).norm();
-      if (mnorm > cy) y *= cy / mnorm;
-      Y.col(worst) = y;
-      X.col(worst) = run_best_geno;
-      pheno[worst] = run_best_pheno;
-      fr[worst] = run_best_value;
-    }
+    // Sorted values of the sampled population (before the elite re-injection): the flat-fitness
+    // escape and the stopping criteria look at these, so that a re-injected old best does not make
+    // the run look stagnant (TolHistFun) while its samples still improve.
+    std::vector<double> fs(fr);
+    std::sort(fs.begin(), fs.end());
+
+    // Elitism: the run's best candidate from the previous generations (the elite) is re-injected in
+    // place of this generation's worst sample when it beats every sample of this generation.
+    const double gen_best = fs.front();
+    const bool inject = options.elitism && run_has_best && run_best_value < gen_best;
+    const VectorXd elite_geno = inject ? run_best_geno : VectorXd();
+    const VectorXd elite_pheno = inject ? run_best_pheno : VectorXd();
+    const double elite_value = run_best_value;
     // Update the run's best from this generation's evaluations.
     for (int k = 0; k < lambda; ++k) {
-      const double v = k < nre && reeval ? std::min(f[k], f2[k]) : f[k];
+      const double v = (reeval && k < nre) ? std::min(f[k], f2[k]) : f[k];
       if (!run_has_best || v < run_best_value) {
         run_has_best = true;
         run_best_value = v;
         run_best_geno = X.col(k);
         run_best_pheno = pheno[k];
       }
+    }
+    if (inject) {
+      int worst = 0;
+      for (int k = 1; k < lambda; ++k)
+        if (fr[k] >= fr[worst]) worst = k;
+      // y consistent with the current mean and step size; its Mahalanobis norm is capped at c_y
+      // (Hansen 2011) so that an elite far from the mean cannot dominate the update.
+      VectorXd y = (elite_geno - m) / sigma;
+      const double mnorm = (inv_sqrt_c * y).norm();
+      if (mnorm > cy) y *= cy / mnorm;
+      Y.col(worst) = y;
+      X.col(worst) = elite_geno;
+      pheno[worst] = elite_pheno;
+      fr[worst] = elite_value;
     }
 
     // Selection.
@@ -407,20 +456,14 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
 
     // Uncertainty handling and flat-fitness escape.
     if (reeval && s_uncertainty > 0) sigma *= alpha_sigma;
-    std::vector<double> fs(lambda);
-    for (int k = 0; k < lambda; ++k) fs[k] = fr[idx[k]];
     const int k_flat = std::max(0, static_cast<int>(std::ceil(0.7 * lambda)) - 1);
     if (fs[0] == fs[k_flat]) sigma *= std::exp(0.2 + p.cs / p.damps);
 
     ++summary.generations;
-    if (callback) {
-      const CmaesProgress progress{summary.evaluations, summary.restarts, summary.generations,
-                                   summary.best_value, sigma, lambda};
-      if (!callback(progress)) {
-        global_stop = true;
-        summary.termination = CmaesTermination::kCallback;
-        return "Callback";
-      }
+    if (!report(sigma, lambda)) {
+      global_stop = true;
+      summary.termination = CmaesTermination::kCallback;
+      return "Callback";
     }
 
     // Stopping criteria of the run.
@@ -440,7 +483,8 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
     if (std::count(hist_equal.begin(), hist_equal.end(), true) * 3 > equal_len)
       return "EqualFunVals";
     const VectorXd sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
-    if ((sigma * sd.array() < options.tol_x).all() && (sigma * pc.array().abs() < options.tol_x).all())
+    if ((sigma * sd.array() < options.tol_x).all() &&
+        (sigma * pc.array().abs() < options.tol_x).all())
       return "TolX";
     if (sigma / sigma_start > 1e20 * D.maxCoeff()) return "TolUpSigma";
     {
@@ -470,7 +514,8 @@ bool CmaesOptions::IsValid(std::string* why) const {
     return fail("max_restarts = " + std::to_string(max_restarts) + ": expected >= 0");
   if (!(tol_x >= 0.0)) return fail("tol_x = " + fmt(tol_x) + ": expected >= 0");
   if (!(tol_fun >= 0.0)) return fail("tol_fun = " + fmt(tol_fun) + ": expected >= 0");
-  if (!(tol_hist_fun >= 0.0)) return fail("tol_hist_fun = " + fmt(tol_hist_fun) + ": expected >= 0");
+  if (!(tol_hist_fun >= 0.0))
+    return fail("tol_hist_fun = " + fmt(tol_hist_fun) + ": expected >= 0");
   if (!(max_condition > 1.0))
     return fail("max_condition = " + fmt(max_condition) + ": expected > 1");
   if (std::isnan(stop_fitness)) return fail("stop_fitness = nan: expected a number");
@@ -487,16 +532,18 @@ std::string CmaesSummary::BriefReport() const {
     case CmaesTermination::kCallback: why = "Callback"; break;
   }
   return "cmaes: best " + fmt(best_value) + " after " + std::to_string(evaluations) +
-         " evaluations, " + std::to_string(restarts) + (restarts == 1 ? " restart (" : " restarts (") +
-         why + ")";
+         " evaluations, " + std::to_string(restarts) +
+         (restarts == 1 ? " restart (" : " restarts (") + why + ")";
 }
 
-CmaesSummary cmaes_minimize(const Objective& objective, const Eigen::VectorXd& x0,
-                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
-                            const CmaesOptions& options, const CmaesCallback& callback) {
-  if (!objective) throw InvalidArgument("cmaes_minimize: objective is empty");
+namespace {
+
+CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* batch,
+                           const Eigen::VectorXd& x0, const Eigen::VectorXd& lower,
+                           const Eigen::VectorXd& upper, const CmaesOptions& options,
+                           const CmaesCallback& callback) {
   std::string why;
-  if (!options.IsValid(&why)) throw InvalidArgument("cmaes_minimize: invalid options: " + why);
+  if (!options.IsValid(&why)) throw InvalidArgument("cmaes: invalid options: " + why);
   const long n = lower.size();
   if (n < 1) throw InvalidArgument("lower: expected size >= 1, got 0");
   check_size("upper", n, upper.size());
@@ -527,13 +574,14 @@ CmaesSummary cmaes_minimize(const Objective& objective, const Eigen::VectorXd& x
       options.lambda > 0 ? options.lambda
                          : 4 + static_cast<int>(std::floor(3.0 * std::log(static_cast<double>(n))));
 
-  Search search(objective, options, callback, std::move(box), static_cast<int>(n));
+  Search search(objective, batch, options, callback, std::move(box), static_cast<int>(n));
   CmaesSummary& summary = search.summary;
   summary.best_x = x0;
   summary.best_value = kInf;
 
   long budget_large = 0, budget_small = 0, last_large_evals = 0;
   long lambda_large = lambda_def;
+  int large_restarts = 0;  // restarts of the large-population regime (limited by max_restarts)
   for (int r = 0;; ++r) {
     const long remaining = options.max_evaluations - summary.evaluations;
     if (remaining <= 0) {
@@ -558,7 +606,9 @@ CmaesSummary cmaes_minimize(const Objective& objective, const Eigen::VectorXd& x
         sigma = sigma_def * std::pow(10.0, -2.0 * u);
         run_budget = std::max(lambda, last_large_evals / 2);
       } else {
-        lambda_large = std::min(2 * lambda_large, std::max<long>(lambda_def, options.max_evaluations));
+        ++large_restarts;
+        lambda_large =
+            std::min(2 * lambda_large, std::max<long>(lambda_def, options.max_evaluations));
         lambda = lambda_large;
       }
     }
@@ -574,12 +624,28 @@ CmaesSummary cmaes_minimize(const Objective& objective, const Eigen::VectorXd& x
       last_large_evals = run_evals;
     }
     if (search.global_stop) break;
-    if (r >= options.max_restarts) {
+    if (!small && large_restarts >= options.max_restarts) {
       summary.termination = CmaesTermination::kMaxRestarts;
       break;
     }
   }
   return summary;
+}
+
+}  // namespace
+
+CmaesSummary cmaes_minimize(const Objective& objective, const Eigen::VectorXd& x0,
+                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                            const CmaesOptions& options, const CmaesCallback& callback) {
+  if (!objective) throw InvalidArgument("cmaes_minimize: objective is empty");
+  return minimize_impl(&objective, nullptr, x0, lower, upper, options, callback);
+}
+
+CmaesSummary cmaes_minimize_batch(const BatchObjective& objective, const Eigen::VectorXd& x0,
+                                  const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                  const CmaesOptions& options, const CmaesCallback& callback) {
+  if (!objective) throw InvalidArgument("cmaes_minimize_batch: objective is empty");
+  return minimize_impl(nullptr, &objective, x0, lower, upper, options, callback);
 }
 
 }  // namespace drops::opt

@@ -45,6 +45,7 @@ class Gp {
   /// GP on inputs of dimension input_dim (>= 1). Throws InvalidArgument otherwise.
   explicit Gp(int input_dim = 1);
 
+  /// Input dimension D.
   int input_dim() const;
   /// Number of training points N.
   int size() const;
@@ -52,37 +53,58 @@ class Gp {
   /// Hyper-parameters h (dim D + 2, log space, see class comment).
   Eigen::VectorXd h_params() const;
   /// Sets h (dim D + 2, finite); if data is present, recomputes the factorisation.
-  /// Throws InvalidArgument on wrong size or non-finite values.
+  /// Throws InvalidArgument on wrong size, non-finite values or |h_i| so large that exp(2 h_i)
+  /// over/underflows (~350); NumericalError if the factorisation fails (the GP is then unchanged).
   void set_h_params(const Eigen::VectorXd& h);
 
+  /// Current kernel (length scales and signal variance sigma_f^2, i.e. exp of h[0..D]).
   const SquaredExpArd& kernel() const;
+  /// Observation-noise variance sigma_n^2 = exp(2 h[D + 1]).
   double noise_variance() const;
 
   /// Stores training data and factorises K + sigma_n^2 I. X: N x D (one input per row), y: N.
   /// N may be 0 (then predictions are the prior: mean 0, variance sigma_f^2).
   /// Cholesky failures are retried with jitter 1e-9 * 10^k added to the diagonal (k < 6), then
-  /// NumericalError is thrown. Throws InvalidArgument on size mismatch or non-finite data.
+  /// NumericalError is thrown. Throws InvalidArgument on size mismatch or non-finite data. On any
+  /// throw the GP keeps its previous data. Cost O(N^2 D + N^3 / 3).
   void compute(const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
 
   /// Replaces only the targets y (dim N) keeping X and h: reuses the factorisation (O(N^2)).
-  /// Used by GP-MI when only the prior mean changes.
+  /// Used by GP-MI when only the prior mean changes. Throws InvalidArgument on size mismatch or
+  /// non-finite values.
   void set_targets(const Eigen::VectorXd& y);
 
-  /// log p(y | X, h) = -1/2 y^T K^-1 y - 1/2 log|K| - N/2 log 2 pi (paper eq. 5), K including noise.
+  /// log p(y | X, h) = -1/2 y^T K^-1 y - 1/2 log|K| - N/2 log 2 pi (paper eq. 5), K including noise
+  /// (and the jitter, if the last factorisation needed one). 0 when N = 0. O(N).
   double log_marginal_likelihood() const;
-  /// d log p / d h (dim D + 2), analytic: 1/2 tr((alpha alpha^T - K^-1) dK/dh_j).
+  /// d log p / d h (dim D + 2), analytic: 1/2 tr((alpha alpha^T - K^-1) dK/dh_j) (Rasmussen &
+  /// Williams 2006, eq. 5.9). The jitter, if any, is treated as a constant. Zero vector when N = 0.
+  /// Cost O(N^3) (K^-1 from the Cholesky factor) + O(N^2 D).
   Eigen::VectorXd log_marginal_likelihood_gradient() const;
 
-  /// Maximises the log marginal likelihood over h with iRprop-, starting from the current h (warm
-  /// start); keeps the best iterate. Requires data (N >= 1). Throws InvalidArgument on invalid options.
+  /// Maximises the log marginal likelihood over h with iRprop- (Igel & Huesken 2000), starting from
+  /// the current h (warm start); one analytic gradient per iteration. On return h is the best iterate
+  /// seen and the GP is refactorised with it (alpha, predictions, likelihood all refer to it).
+  /// Box: every iterate after the start is clamped to log l_d in [-10, 10], log sigma_f in [-10, 10],
+  /// log sigma_n in [log 1e-5, 10] (noise std >= 1e-5) to stay numerically safe; a parameter stopped
+  /// by the box keeps a step <= delta0. Stops after options.max_iterations gradient evaluations
+  /// (the start included), when every step has shrunk to delta_min, or by the tolerance/patience rule.
+  /// An iterate whose Cholesky fails (even after jitter) or whose likelihood/gradient is not finite
+  /// counts as -inf: it is counted in cholesky_failures, all steps shrink by eta_minus and the search
+  /// resumes from the best iterate. Requires data (N >= 1). Throws InvalidArgument on invalid options
+  /// or N = 0. Not thread-safe (mutates the GP). Cost per iteration: O(N^3) (Cholesky + K^-1).
   RpropSummary optimize_h_params(const RpropOptions& options = {});
 
-  /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise) at x (dim D).
-  /// Thread-safe after compute().
+  /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise, clamped at >= 0)
+  /// at x (dim D; InvalidArgument otherwise). Thread-safe after compute(); per-thread scratch, no heap
+  /// allocation in steady state.
   void predict(const Eigen::VectorXd& x, double& mean, double& variance) const;
 
   /// Batched prediction for B query points. Xq: B x D (one query per row); mean, variance: resized
-  /// to B. Equal to B calls of predict() up to round-off; much faster for B >= 4. Thread-safe.
+  /// to B. Equal to B calls of predict() up to round-off (~1e-12); much faster for B >= 4. Thread-safe.
+  /// Hot path of the Monte-Carlo rollouts: uses a per-thread scratch buffer that only grows, so no heap
+  /// allocation happens once it has reached N * B and mean/variance already have size B.
+  /// Non-finite queries propagate NaN (not checked). Throws InvalidArgument if Xq.cols() != D.
   void predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
                      Eigen::VectorXd& variance) const;
 
@@ -96,16 +118,19 @@ class Gp {
   SquaredExpArd kernel_;
   double log_sigma_n_;
   Eigen::MatrixXd X_;          // N x D training inputs
-  Eigen::MatrixXd Xs_;         // N x D, inputs divided by the length scales (column-wise)
-  Eigen::VectorXd Xs_sqnorm_;  // N, squared row norms of Xs_
+  Eigen::RowVectorXd X_mean_;  // D, column means of X_ (centring keeps the distance expansion accurate)
+  // N x (D + 2) augmented scaled inputs [xs, -|xs|^2 / 2, 1] with xs = (x - X_mean_) / l, so that
+  // one product with a query row [q, 1, -|q|^2 / 2] gives -1/2 of the squared scaled distance.
+  Eigen::MatrixXd Xa_;
   Eigen::VectorXd y_;          // N targets
   Eigen::MatrixXd Kf_;         // N x N noise-free kernel matrix (used by the gradient)
-  Eigen::MatrixXd L_;          // N x N, lower triangle = Cholesky factor of K; strict upper unspecified
+  Eigen::MatrixXd L_;          // N x N, lower triangle = Cholesky factor L of K; strict upper = L^T
+                               // (so row i of L is contiguous in column i, for predict_batch)
   Eigen::VectorXd alpha_;      // N, K^-1 y
   double jitter_ = 0.0;        // extra diagonal added to K by the last successful factorisation
 
   // Factorises K for (kernel, log_sigma_n, X) with the jitter retries and, on success only, commits
-  // kernel, noise, X (unless X aliases X_), Xs_, Kf_, L_, jitter_, y_ and alpha_. Throws NumericalError.
+  // kernel, noise, X (unless X aliases X_), X_mean_, Xa_, Kf_, L_, jitter_, y_ and alpha_. Throws NumericalError.
   void factorise(const SquaredExpArd& kernel, double log_sigma_n, const Eigen::MatrixXd& X,
                  const Eigen::VectorXd& y);
   // Applies a log-space h (already validated) and refactorises.

@@ -19,7 +19,7 @@ struct SquaredExpArd {
   explicit SquaredExpArd(int input_dim = 0)
       : length_scales(Eigen::VectorXd::Ones(input_dim)) {}
   int input_dim() const { return static_cast<int>(length_scales.size()); }
-  /// k(a, b); a, b: dim D.
+  /// k(a, b); a, b: dim D (InvalidArgument otherwise).
   double operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const;
 };
 

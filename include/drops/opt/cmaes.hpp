@@ -24,17 +24,27 @@ struct CmaesOptions {
   /// Total budget of objective evaluations over all restarts (>= 1).
   long max_evaluations = 10000;
   /// Maximum number of restarts after the first run (>= 0). BIPOP alternates large populations
-  /// (lambda doubling) and small ones (Hansen 2009).
+  /// (lambda doubling) and small ones (Hansen 2009). As in Hansen's reference (pycma), this counts
+  /// the large-population (IPOP, lambda doubling) restarts only: the small-population runs that
+  /// BIPOP interleaves (each limited to half the budget of the latest large run) do not count, so the
+  /// search ends after the run with lambda = 2^max_restarts * lambda0 (or the budget).
+  /// CmaesSummary::restarts counts every restart of both regimes.
   int max_restarts = 3;
   /// Use BIPOP restarts; when false, restarts are IPOP (population doubling) only.
   bool bipop = true;
   /// Active covariance matrix update (negative weights, Jastrebski & Arnold 2006).
   bool active = true;
   /// Elitism: re-inject the best-ever candidate into each generation's population (replacing the
-  /// worst sample) so that the search cannot lose it (settings.md §5).
+  /// worst sample) so that the search cannot lose it (settings.md §5). "Best-ever" is per run: each
+  /// restart starts a fresh elite (re-injecting an earlier run's best would defeat the restarts);
+  /// the best over all runs is what CmaesSummary reports. The elite keeps its recorded value (it is
+  /// not re-evaluated) and is injected only when it beats every sample of the generation.
   bool elitism = true;
   /// Uncertainty handling (Hansen et al. 2009): re-evaluate a few candidates each generation and
-  /// increase sigma when the ranking is dominated by noise. For noisy objectives.
+  /// increase sigma when the ranking is dominated by noise. For noisy objectives. Simplified UH:
+  /// max(1, lambda / 10) candidates are re-evaluated with fresh streams (counted as evaluations and
+  /// ranked by the mean of their two values); when the rank-change measure s > 0, sigma is
+  /// multiplied by 1 + 2 / (n + 10).
   bool uncertainty_handling = false;
   /// Stopping criteria of one run (standard values from the tutorial):
   double tol_x = 1e-12;          ///< stop when all sigma * sqrt(C_ii) and sigma * p_c < tol_x
@@ -51,7 +61,7 @@ struct CmaesOptions {
   bool IsValid(std::string* why) const;
 };
 
-/// Why a Cmaes::minimize call ended.
+/// Why a cmaes_minimize call ended.
 enum class CmaesTermination {
   kMaxEvaluations,   ///< budget exhausted
   kMaxRestarts,      ///< last permitted run stopped by its own criteria
@@ -59,7 +69,7 @@ enum class CmaesTermination {
   kCallback,         ///< the user callback asked to stop
 };
 
-/// Result of Cmaes::minimize.
+/// Result of cmaes_minimize (and cmaes_minimize_batch).
 struct CmaesSummary {
   Eigen::VectorXd best_x;        ///< best candidate ever evaluated (dim n), inside the bounds
   double best_value = 0;         ///< objective value at best_x (as evaluated, noise included)
@@ -67,7 +77,10 @@ struct CmaesSummary {
   int restarts = 0;              ///< restarts performed
   int generations = 0;           ///< generations over all runs
   CmaesTermination termination = CmaesTermination::kMaxEvaluations;
-  std::vector<std::string> run_stop_reasons;  ///< per run: "TolX", "TolHistFun", "EqualFunVals", ...
+  /// Per run, why it stopped: "MaxFunEvals" (total budget, or the run budget of a small BIPOP run),
+  /// "TolX", "TolFun", "TolHistFun", "EqualFunVals", "ConditionCov", "NoEffectAxis",
+  /// "NoEffectCoord", "TolUpSigma", "MaxIter", "NumericalError", "StopFitness" or "Callback".
+  std::vector<std::string> run_stop_reasons;
   /// One line: "cmaes: best -12.3 after 10000 evaluations, 3 restarts (MaxEvaluations)".
   std::string BriefReport() const;
 };
@@ -82,8 +95,10 @@ struct CmaesProgress {
   int lambda;         ///< population size of the running run
 };
 
-/// Objective: value to MINIMISE at x (dim n). `stream` is a seed unique to this evaluation (derived
-/// from CmaesOptions::seed, the generation and the candidate index), to be used by stochastic
+/// Objective: value to MINIMISE at x (dim n). `stream` is a seed unique to this evaluation,
+/// derive_seed(CmaesOptions::seed, {run, generation within the run, candidate index}) where run is 0
+/// for the first run and candidate index is in [0, lambda) (lambda + j for the j-th re-evaluation of
+/// uncertainty handling); to be used by stochastic
 /// objectives so that results do not depend on the evaluation order or thread count. Called
 /// concurrently from several threads when options.parallel is true: must be thread-safe.
 /// Non-finite values are treated as +infinity (worst).

@@ -1,0 +1,66 @@
+#pragma once
+/// \file Experiment configuration: a schema of every key (type, default, range, unit, meaning),
+/// YAML loading with key=value overrides, validation with actionable messages, and the resolved
+/// experiment. docs/configuration.md is generated from the same schema (drops config --markdown).
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "drops/algo/black_drops.hpp"
+#include "pendubot/pendubot.hpp"
+
+namespace drops::io {
+
+/// One configuration key.
+struct KeySpec {
+  std::string key;         ///< dotted path, e.g. "model.type"
+  std::string type;        ///< "int", "double", "bool", "string", "enum", "names", "interval"
+  std::string default_value;  ///< as YAML text ("" = derived, see doc)
+  double min = 0, max = 0;    ///< numeric range (inclusive) when min < max
+  std::vector<std::string> allowed;  ///< enum values, or the names allowed in a "names" list
+  std::string unit;        ///< physical unit or "-"
+  std::string doc;         ///< meaning
+};
+
+/// The full schema, in documentation order.
+const std::vector<KeySpec>& schema();
+
+/// A validated set of values for every schema key (defaults filled in), as YAML scalars/sequences
+/// in text form, keyed by dotted path.
+using Settings = std::map<std::string, std::string>;
+
+/// Reads a YAML document (text) and applies key=value overrides (value parsed as YAML, so
+/// "prior.bounds.m1=[0.1, 1]" works). Throws ConfigError naming the key, the value and what is
+/// allowed for unknown keys, wrong types and out-of-range values. An empty text gives the defaults.
+Settings load_settings(const std::string& yaml_text, const std::vector<std::string>& overrides);
+/// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
+Settings load_settings_file(const std::string& path, const std::vector<std::string>& overrides);
+
+/// The experiment described by settings (only the pendubot task exists so far).
+struct Experiment {
+  std::string task = "pendubot";
+  std::string prior_preset;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  std::string output = "runs";
+  std::string name;
+  pendubot::TaskOptions task_options;
+  pendubot::Params actual;              ///< the "real" system
+  model::PriorParameters prior;         ///< starting phi, tunable set and bounds
+  policy::NeuralNetPolicyOptions policy;
+  algo::BlackDropsOptions algo;
+};
+
+/// Builds the experiment; throws ConfigError for combinations the schema cannot check alone
+/// (e.g. a tunable parameter whose bounds allow a singular prior).
+Experiment make_experiment(const Settings& settings);
+
+/// Settings as a nested YAML document (the resolved config written into each run directory).
+std::string to_yaml(const Settings& settings);
+
+/// The schema as a Markdown table (docs/configuration.md).
+std::string schema_markdown();
+
+}  // namespace drops::io

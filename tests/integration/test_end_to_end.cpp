@@ -1,0 +1,118 @@
+// End-to-end: the `drops` binary learns the pendubot swing-up (slow; label "slow").
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("drops-e2e-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+int run(const std::string& args, std::string* stderr_text = nullptr) {
+  const std::string err = (fs::temp_directory_path() / ("drops-e2e-stderr-" + std::to_string(getpid()))).string();
+  const int rc = std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err).c_str());
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (stderr_text) *stderr_text = ss.str();
+  return WEXITSTATUS(rc);
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+int count_lines(const fs::path& p) {
+  std::ifstream in(p);
+  int n = 0;
+  std::string line;
+  while (std::getline(in, line)) ++n;
+  return n;
+}
+
+}  // namespace
+
+// The learning threshold: gp_mi with the tunable-useful prior solves within 8 episodes,
+// with a fixed seed and a budget that fits CI.
+TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
+  const fs::path out = fresh_dir("gpmi");
+  std::string err;
+  const int rc = run("run " + std::string(DROPS_SOURCE_DIR) +
+                         "/configs/pendubot-gp_mi.yaml episodes=8 seed=1 --output " +
+                         out.string() + " --name run -q",
+                     &err);
+  ASSERT_EQ(rc, 0) << err;
+  const auto summary = read_json(out / "run" / "summary.json");
+  EXPECT_EQ(summary["status"], "complete");
+  EXPECT_EQ(summary["episodes_done"], 8);
+  ASSERT_TRUE(summary.contains("first_solved_episode")) << summary.dump(2);
+  EXPECT_LE(summary["first_solved_episode"].get<int>(), 8);
+  // every episode's files are there
+  EXPECT_EQ(count_lines(out / "run" / "episodes.csv"), 9);
+  for (int e = 1; e <= 8; ++e) {
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "%03d", e);
+    EXPECT_EQ(count_lines(out / "run" / "episodes" / buf / "real.csv"), 52);
+    EXPECT_EQ(count_lines(out / "run" / "episodes" / buf / "policy.csv"), 81);
+  }
+  EXPECT_TRUE(fs::exists(out / "run" / "config.yaml"));
+  fs::remove_all(out);
+}
+
+TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
+  const fs::path out = fresh_dir("bad");
+  std::string err;
+  EXPECT_EQ(run("run model.tpye=gp --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find("did you mean 'model.type'"), std::string::npos) << err;
+  EXPECT_EQ(run("run /nonexistent.yaml --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find("cannot read config file"), std::string::npos) << err;
+  EXPECT_TRUE(fs::is_empty(out));
+  fs::remove_all(out);
+}
+
+TEST(EndToEnd, InterruptKeepsEveryFinishedEpisode) {
+  const fs::path out = fresh_dir("sigint");
+  const std::string cmd = std::string(DROPS_BINARY) + " run episodes=50 model.type=gp_prior "
+                          "optimizer.max_evaluations=2000 --output " + out.string() +
+                          " --name run -q";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>/dev/null").c_str(), nullptr);
+    _exit(127);
+  }
+  // wait for two recorded episodes, then Ctrl-C
+  const fs::path csv = out / "run" / "episodes.csv";
+  for (int i = 0; i < 600 && count_lines(csv) < 3; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  const auto summary = read_json(out / "run" / "summary.json");
+  EXPECT_EQ(summary["status"], "interrupted");
+  const int done = summary["episodes_done"].get<int>();
+  EXPECT_GE(done, 2);
+  EXPECT_LT(done, 50);
+  EXPECT_EQ(count_lines(csv), done + 1);
+  fs::remove_all(out);
+}

@@ -1,0 +1,165 @@
+// Dynamics-model variants: GP-MI and MI identify the pendubot's parameters (paper §IV-B).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "drops/core/errors.hpp"
+#include "drops/model/dynamics_model.hpp"
+#include "drops/rollout/rollout.hpp"
+#include "pendubot/pendubot.hpp"
+
+using namespace drops;
+
+namespace {
+
+/// Two episodes of the actual pendubot under random network policies (fixed seeds).
+std::vector<Transition> actual_data(int episodes = 2) {
+  pendubot::SwingUpTask task;
+  pendubot::PendubotSystem real(pendubot::Params{});
+  policy::NeuralNetPolicyOptions po;
+  po.input_scale = VectorXd(6);
+  po.input_scale << 10, 10, 1, 1, 1, 1;
+  policy::NeuralNetPolicy pol(po);
+  std::vector<Transition> data;
+  for (int e = 0; e < episodes; ++e) {
+    Rng rng(100 + e);
+    VectorXd theta(pol.param_dim());
+    for (int i = 0; i < theta.size(); ++i) theta[i] = rng.uniform(-1, 1);
+    pol.set_params(theta);
+    const auto tr = rollout::run_episode(task, real, pol, rng);
+    for (auto& t : tr.transitions()) data.push_back(t);
+  }
+  return data;
+}
+
+model::PriorParameters tunable_prior(const std::string& preset) {
+  model::PriorParameters p;
+  p.names = pendubot::parameter_names();
+  p.values = pendubot::preset(preset).to_phi();
+  p.tunable = {0, 1, 2, 3};
+  p.lower = VectorXd::Constant(4, 0.05);
+  p.upper = VectorXd::Constant(4, 1.0);
+  p.choices.assign(4, {});
+  return p;
+}
+
+}  // namespace
+
+TEST(LogSumExp, IsStableAndExact) {
+  VectorXd v(3);
+  v << -1000, -1001, -1002;
+  EXPECT_NEAR(model::log_sum_exp(v), -1000 + std::log(1 + std::exp(-1.0) + std::exp(-2.0)), 1e-12);
+  v << 1000, 0, -5;
+  EXPECT_NEAR(model::log_sum_exp(v), 1000, 1e-12);
+  EXPECT_TRUE(std::isinf(model::log_sum_exp(VectorXd())));
+}
+
+TEST(GpMi, IdentifiesM2FromTwoEpisodesStartingFromTheTunablePrior) {
+  const auto data = actual_data(2);
+  ASSERT_EQ(data.size(), 100u);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpMi;
+  auto m = model::make_model(o, task, prior, tunable_prior("tunable"));
+  const auto s = m->learn(data);
+  EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
+  EXPECT_GT(s.phi_evaluations, 10);
+  // the learned model predicts held-out actual transitions well
+  const auto test = actual_data(3);
+  double err = 0;
+  Prediction p;
+  for (std::size_t n = 100; n < test.size(); ++n) {
+    m->predict(test[n].x, test[n].u, p);
+    err = std::max(err, (p.mean - test[n].dx).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(err, 0.05);
+}
+
+TEST(GpMi, NestedSearchAlsoIdentifiesM2) {
+  const auto data = actual_data(2);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpMi;
+  o.gp_mi.search = model::GpMiSearch::kNested;
+  o.gp_mi.max_evaluations = 300;
+  o.gp_mi.inner_rprop_iterations = 20;
+  auto m = model::make_model(o, task, prior, tunable_prior("tunable"));
+  const auto s = m->learn(data);
+  EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
+}
+
+TEST(Mi, IdentifiesM2FromTwoEpisodes) {
+  const auto data = actual_data(2);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::ModelOptions o;
+  o.type = model::ModelType::kMi;
+  auto m = model::make_model(o, task, prior, tunable_prior("tunable"));
+  const auto s = m->learn(data);
+  EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
+  Prediction p;
+  m->predict(data[7].x, data[7].u, p);
+  EXPECT_EQ(p.var.norm(), 0.0);  // MI is deterministic
+}
+
+TEST(GpPrior, KeepsPhiFixedAndCorrectsTheResidual) {
+  const auto data = actual_data(2);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpPrior;
+  const auto params = tunable_prior("tunable");
+  auto m = model::make_model(o, task, prior, params);
+  const auto s = m->learn(data);
+  EXPECT_EQ((s.phi - params.values).norm(), 0.0);
+  // On training inputs the GP residual corrects the wrong prior.
+  Prediction p;
+  VectorXd prior_dx(4);
+  double gp_err = 0, prior_err = 0;
+  for (std::size_t n = 0; n < data.size(); n += 5) {
+    m->predict(data[n].x, data[n].u, p);
+    prior->evaluate(data[n].x, data[n].u, params.values, prior_dx);
+    gp_err += (p.mean - data[n].dx).norm();
+    prior_err += (prior_dx - data[n].dx).norm();
+  }
+  EXPECT_LT(gp_err, 0.2 * prior_err);
+}
+
+TEST(Models, BatchPredictionEqualsSinglePrediction) {
+  const auto data = actual_data(1);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  for (auto type : {model::ModelType::kGp, model::ModelType::kGpPrior, model::ModelType::kMi}) {
+    model::ModelOptions o;
+    o.type = type;
+    o.rprop.max_iterations = 30;
+    auto m = model::make_model(o, task, prior, tunable_prior("tunable-useful"));
+    m->learn(data);
+    MatrixXd X(5, 4), U(5, 1), mean, var;
+    for (int b = 0; b < 5; ++b) {
+      X.row(b) = data[static_cast<std::size_t>(b * 7)].x.transpose();
+      U.row(b) = data[static_cast<std::size_t>(b * 7)].u.transpose();
+    }
+    m->predict_batch(X, U, mean, var);
+    Prediction p;
+    for (int b = 0; b < 5; ++b) {
+      m->predict(X.row(b).transpose(), U.row(b).transpose(), p);
+      EXPECT_LT((p.mean - mean.row(b).transpose()).norm(), 1e-9);
+      EXPECT_LT((p.var - var.row(b).transpose()).norm(), 1e-9);
+    }
+  }
+}
+
+TEST(Models, RejectMissingPriorAndBadData) {
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpMi;
+  EXPECT_THROW(model::make_model(o, task, nullptr, {}), InvalidArgument);
+  o.type = model::ModelType::kGp;
+  auto m = model::make_model(o, task, nullptr, {});
+  Transition t{VectorXd::Zero(3), VectorXd::Zero(1), VectorXd::Zero(4)};
+  EXPECT_THROW(m->learn({t}), InvalidArgument);
+  EXPECT_THROW(model::parse_model_type("gpmi"), InvalidArgument);
+}
