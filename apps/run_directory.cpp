@@ -70,14 +70,15 @@ RunDirectory::RunDirectory(const fs::path& dir, const io::Settings& settings,
   episodes_csv_ << "episode,interaction_time_s,real_return,predicted_return,solved,phi,"
                    "model_learning_s,policy_optimization_s,evaluations\n";
   episodes_csv_.flush();
+  const VectorXd actual = experiment.actual.to_phi();
+  const std::vector<double> phi_actual(actual.data(), actual.data() + actual.size());
   summary_ = {{"task", experiment.task},
               {"model", model::to_string(experiment.algo.model.type)},
               {"prior", experiment.prior_preset},
               {"seed", experiment.seed},
               {"episodes_planned", experiment.algo.episodes},
               {"phi_names", experiment.prior.names},
-              {"phi_actual", std::vector<double>(experiment.actual.to_phi().data(),
-                                                 experiment.actual.to_phi().data() + 6)},
+              {"phi_actual", phi_actual},
               {"started", now_iso()},
               {"episodes", nlohmann::json::array()}};
   write_summary("running");

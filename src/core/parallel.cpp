@@ -15,7 +15,10 @@ void parallel_for(std::size_t n, const std::function<void(std::size_t)>& body) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
-                    });
+                    },
+                    // Items are coarse (a batch of rollouts, one output GP): split down to single
+                    // items so that few items still spread over every thread.
+                    tbb::simple_partitioner());
 }
 
 struct ThreadLimit::Impl {

@@ -68,6 +68,7 @@ double transform_coord(double x, const CoordBox& b) {
   if (!lo && !hi) return x;
   if (lo && hi) {
     const double lb = b.lb, ub = b.ub, al = b.al, au = b.au, w = ub - lb;
+    if (!std::isfinite(x)) return x > 0 ? ub : (x < 0 ? lb : 0.5 * (lb + ub));  // overflowed sample
     // Shift into one period [lb - 2al - w/2, ub + 2au + w/2) when far away.
     const double start = lb - 2.0 * al - 0.5 * w;
     const double stop = ub + 2.0 * au + 0.5 * w;
@@ -331,7 +332,7 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
       summary.termination = CmaesTermination::kMaxEvaluations;
       return "MaxFunEvals";
     }
-    if (run_evals + lambda > run_budget) return "MaxFunEvals";
+    if (run_evals + lambda > run_budget) return "RunBudget";  // small BIPOP run
 
     // Lazy eigendecomposition of C.
     if (gen - last_eigen_gen >= p.eigen_gap && gen > 0) {
@@ -469,7 +470,9 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
     // Stopping criteria of the run.
     hist_best.push_back(fs[0]);
     if (static_cast<int>(hist_best.size()) > hist_len) hist_best.pop_front();
-    const int k_equal = std::min(lambda - 1, static_cast<int>(std::ceil(0.1 + lambda / 4.0)) - 1);
+    // EqualFunVals compares the best with the ceil(0.1 + lambda/4)-th best (at least the 2nd).
+    const int k_equal =
+        std::min(lambda - 1, std::max(1, static_cast<int>(std::ceil(0.1 + lambda / 4.0)) - 1));
     hist_equal.push_back(fs[0] == fs[k_equal]);
     if (static_cast<int>(hist_equal.size()) > equal_len) hist_equal.pop_front();
 
@@ -612,7 +615,9 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
         lambda = lambda_large;
       }
     }
-    lambda = std::max(2L, std::min(lambda, remaining < 2 ? 2L : remaining));
+    // A population larger than the remaining budget could not be evaluated anyway; the hard cap
+    // only guards memory and int conversions for absurd budgets.
+    lambda = std::max(2L, std::min({lambda, remaining, 1L << 24}));
     long run_evals = 0;
     const std::string reason =
         search.run(r, static_cast<int>(lambda), sigma, start, run_budget, run_evals);

@@ -79,13 +79,17 @@ std::array<double, 4> derivative(const Params& p, const std::array<double, 4>& x
   const double dth1 = x[0], dth2 = x[1], th1 = x[2], th2 = x[3];
   const double I1 = p.m1 * p.l1 * p.l1 / 12.0;
   const double I2 = p.m2 * p.l2 * p.l2 / 12.0;
-  const double s12 = std::sin(th1 - th2), c12 = std::cos(th1 - th2);
+  // Two sincos instead of four trigonometric calls: the prior runs inside every rollout step.
+  double s1, c1_, s2, c2_;
+  sincos(th1, &s1, &c1_);
+  sincos(th2, &s2, &c2_);
+  const double s12 = s1 * c2_ - c1_ * s2, c12 = c1_ * c2_ + s1 * s2;
   const double a11 = p.l1 * p.l1 * (0.25 * p.m1 + p.m2) + I1;
   const double a12 = 0.5 * p.m2 * p.l1 * p.l2 * c12;
   const double a22 = 0.25 * p.l2 * p.l2 * p.m2 + I2;
-  const double c1 = p.g * p.l1 * std::sin(th1) * (0.5 * p.m1 + p.m2) -
+  const double c1 = p.g * p.l1 * s1 * (0.5 * p.m1 + p.m2) -
                     0.5 * p.m2 * p.l1 * p.l2 * dth2 * dth2 * s12 + u - p.b1 * dth1;
-  const double c2 = 0.5 * p.m2 * p.l2 * (p.l1 * dth1 * dth1 * s12 + p.g * std::sin(th2)) -
+  const double c2 = 0.5 * p.m2 * p.l2 * (p.l1 * dth1 * dth1 * s12 + p.g * s2) -
                     p.b2 * dth2;
   const double det = a11 * a22 - a12 * a12;  // > 0 for valid parameters (checked)
   const double ddth1 = (a22 * c1 - a12 * c2) / det;

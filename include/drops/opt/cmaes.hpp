@@ -77,8 +77,8 @@ struct CmaesSummary {
   int restarts = 0;              ///< restarts performed
   int generations = 0;           ///< generations over all runs
   CmaesTermination termination = CmaesTermination::kMaxEvaluations;
-  /// Per run, why it stopped: "MaxFunEvals" (total budget, or the run budget of a small BIPOP run),
-  /// "TolX", "TolFun", "TolHistFun", "EqualFunVals", "ConditionCov", "NoEffectAxis",
+  /// Per run, why it stopped: "MaxFunEvals" (total budget), "RunBudget" (a small BIPOP run used its
+  /// budget, half of the latest large run's), "TolX", "TolFun", "TolHistFun", "EqualFunVals", "ConditionCov", "NoEffectAxis",
   /// "NoEffectCoord", "TolUpSigma", "MaxIter", "NumericalError", "StopFitness" or "Callback".
   std::vector<std::string> run_stop_reasons;
   /// One line: "cmaes: best -12.3 after 10000 evaluations, 3 restarts (MaxEvaluations)".
