@@ -7,6 +7,7 @@
 #include <numbers>
 #include <sstream>
 #include <utility>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -25,10 +26,16 @@ constexpr int kJitterRetries = 6;               // jitter 1e-9 * 10^k, k = 0..5
 constexpr double kJitterBase = 1e-9;
 
 // Grows a thread-local scratch buffer to at least n doubles (never shrinks, so repeated calls on GPs
-// of the same or smaller size do not allocate) and returns its start.
+// of the same or smaller size do not allocate) and returns its start, aligned to 64 bytes. The
+// alignment matters for reproducibility: Eigen's vectorised kernels peel a different number of
+// leading elements for differently aligned data, which changes round-off, so without it results
+// would depend on which thread's buffer a prediction used.
 double* scratch(std::vector<double>& buf, std::size_t n) {
-  if (buf.size() < n) buf.resize(n);
-  return buf.data();
+  constexpr std::size_t kAlign = 64 / sizeof(double);
+  if (buf.size() < n + kAlign) buf.resize(n + kAlign);
+  void* p = buf.data();
+  std::size_t space = buf.size() * sizeof(double);
+  return static_cast<double*>(std::align(64, n * sizeof(double), p, space));
 }
 
 // "where" of the first non-finite entry of m, for error messages.
