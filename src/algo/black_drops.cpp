@@ -58,8 +58,18 @@ opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::Dynami
     values.resize(xs.size());
     for (std::size_t k = 0; k < xs.size(); ++k) values[k] = -returns[static_cast<Eigen::Index>(k)];
   };
-  auto summary = opt::cmaes_minimize_batch(objective, theta0.cwiseMax(lower).cwiseMin(upper),
-                                           lower, upper, co, on_gen);
+  const VectorXd start = theta0.cwiseMax(lower).cwiseMin(upper);
+  auto summary = opt::cmaes_minimize_batch(objective, start, lower, upper, co, on_gen);
+  // CMA-ES samples around the start point but never evaluates it, and with sigma0 = b it may end
+  // in a worse optimum than the best policy so far: keep the start when it scores better.
+  std::vector<double> start_value;
+  objective({start}, {derive_seed(seed, {0xC0FFEE})}, start_value);
+  ++summary.evaluations;
+  if (start_value[0] < summary.best_value) {
+    summary.best_x = start;
+    summary.best_value = start_value[0];
+    summary.run_stop_reasons.push_back("StartPointKept");
+  }
   if (nonfinite_steps) *nonfinite_steps += stats.nonfinite_steps;
   return summary;
 }

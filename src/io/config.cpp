@@ -475,10 +475,13 @@ std::string schema_markdown() {
       for (const auto& a : s.allowed) range += (range.empty() ? "" : ", ") + a;
     } else if (s.min < s.max) {
       std::ostringstream r;
+      r.precision(12);
       r << "[" << s.min << ", " << s.max << "]";
       range = r.str();
     }
-    o << "| `" << s.key << "` | " << s.type << " | `" << (s.default_value.empty() ? "(preset)" : s.default_value)
+    o << "| `" << s.key << "` | " << s.type << " | `" << (!s.default_value.empty()           ? s.default_value
+                                   : s.key.rfind("prior.", 0) == 0 ? "(preset)"
+                                                                   : "\"\"")
       << "` | " << range << " | " << s.unit << " | " << s.doc << " |\n";
   }
   return o.str();

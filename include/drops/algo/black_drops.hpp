@@ -95,7 +95,9 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const BlackDropsCallbacks& callbacks = {});
 
 /// Maximises the mean model return over theta in [-b, b]^n with BIPOP-aCMA-ES starting from
-/// theta0; returns the CMA-ES summary (best_value is the NEGATED best return). Exposed for
+/// theta0 (clamped into the box); theta0 itself is also evaluated and returned when no candidate
+/// beats it (run_stop_reasons then ends with "StartPointKept"). Returns the CMA-ES summary
+/// (best_value is the NEGATED best return; evaluations include the start point's). Exposed for
 /// benchmarks and tests.
 opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
                                   const policy::Policy& policy, const VectorXd& theta0,
