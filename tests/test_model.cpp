@@ -163,3 +163,24 @@ TEST(Models, RejectMissingPriorAndBadData) {
   EXPECT_THROW(m->learn({t}), InvalidArgument);
   EXPECT_THROW(model::parse_model_type("gpmi"), InvalidArgument);
 }
+
+TEST(GpMi, ExhaustiveSearchOverADiscreteParameterPicksTheActualValue) {
+  const auto data = actual_data(2);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::PriorParameters p;
+  p.names = pendubot::parameter_names();
+  p.values = pendubot::preset("tunable").to_phi();  // m2 = 0.75
+  p.tunable = {1};
+  p.lower = VectorXd::Constant(1, 0.3);
+  p.upper = VectorXd::Constant(1, 0.8);
+  p.choices = {{0.35, 0.5, 0.65, 0.75}};
+  for (auto type : {model::ModelType::kGpMi, model::ModelType::kMi}) {
+    model::ModelOptions o;
+    o.type = type;
+    auto m = model::make_model(o, task, prior, p);
+    const auto s = m->learn(data);
+    EXPECT_EQ(s.phi[1], 0.5) << model::to_string(type) << ": " << s.BriefReport();
+    EXPECT_EQ(s.phi_evaluations, type == model::ModelType::kGpMi ? 4 * s.rounds : 4);
+  }
+}
