@@ -43,6 +43,14 @@ model::PriorParameters tunable_prior(const std::string& preset) {
   return p;
 }
 
+/// A model of `type` on the pendubot prior, starting from `params`.
+std::unique_ptr<model::DynamicsModel> pendubot_model(model::ModelOptions o, model::ModelType type,
+                                                     const model::PriorParameters& params) {
+  o.type = type;
+  return model::make_model(o, std::make_shared<pendubot::SwingUpTask>(),
+                           std::make_shared<pendubot::PendubotPrior>(), params);
+}
+
 }  // namespace
 
 TEST(LogSumExp, IsStableAndExact) {
@@ -57,11 +65,7 @@ TEST(LogSumExp, IsStableAndExact) {
 TEST(GpMi, IdentifiesM2FromTwoEpisodesStartingFromTheTunablePrior) {
   const auto data = actual_data(2);
   ASSERT_EQ(data.size(), 100u);
-  auto task = std::make_shared<pendubot::SwingUpTask>();
-  auto prior = std::make_shared<pendubot::PendubotPrior>();
-  model::ModelOptions o;
-  o.type = model::ModelType::kGpMi;
-  auto m = model::make_model(o, task, prior, tunable_prior("tunable"));
+  auto m = pendubot_model({}, model::ModelType::kGpMi, tunable_prior("tunable"));
   const auto s = m->learn(data);
   EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
   EXPECT_GT(s.phi_evaluations, 10);
@@ -78,25 +82,18 @@ TEST(GpMi, IdentifiesM2FromTwoEpisodesStartingFromTheTunablePrior) {
 
 TEST(GpMi, NestedSearchAlsoIdentifiesM2) {
   const auto data = actual_data(2);
-  auto task = std::make_shared<pendubot::SwingUpTask>();
-  auto prior = std::make_shared<pendubot::PendubotPrior>();
   model::ModelOptions o;
-  o.type = model::ModelType::kGpMi;
   o.gp_mi.search = model::GpMiSearch::kNested;
   o.gp_mi.max_evaluations = 300;
   o.gp_mi.inner_rprop_iterations = 20;
-  auto m = model::make_model(o, task, prior, tunable_prior("tunable"));
+  auto m = pendubot_model(o, model::ModelType::kGpMi, tunable_prior("tunable"));
   const auto s = m->learn(data);
   EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
 }
 
 TEST(Mi, IdentifiesM2FromTwoEpisodes) {
   const auto data = actual_data(2);
-  auto task = std::make_shared<pendubot::SwingUpTask>();
-  auto prior = std::make_shared<pendubot::PendubotPrior>();
-  model::ModelOptions o;
-  o.type = model::ModelType::kMi;
-  auto m = model::make_model(o, task, prior, tunable_prior("tunable"));
+  auto m = pendubot_model({}, model::ModelType::kMi, tunable_prior("tunable"));
   const auto s = m->learn(data);
   EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
   Prediction p;
@@ -176,9 +173,7 @@ TEST(GpMi, ExhaustiveSearchOverADiscreteParameterPicksTheActualValue) {
   p.upper = VectorXd::Constant(1, 0.8);
   p.choices = {{0.35, 0.5, 0.65, 0.75}};
   for (auto type : {model::ModelType::kGpMi, model::ModelType::kMi}) {
-    model::ModelOptions o;
-    o.type = type;
-    auto m = model::make_model(o, task, prior, p);
+    auto m = pendubot_model({}, type, p);
     const auto s = m->learn(data);
     EXPECT_EQ(s.phi[1], 0.5) << model::to_string(type) << ": " << s.BriefReport();
     EXPECT_EQ(s.phi_evaluations, type == model::ModelType::kGpMi ? 4 * s.rounds : 4);

@@ -49,7 +49,6 @@ opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::Dynami
   opt::CmaesOptions co = options.cmaes;
   co.seed = seed;
   if (co.sigma0 <= 0) co.sigma0 = options.theta_bound;  // settings.md §5: sigma0 = b
-  std::vector<long> bad_per_call;
   rollout::RolloutStats stats;
   auto objective = [&](const std::vector<VectorXd>& xs, const std::vector<std::uint64_t>& streams,
                        std::vector<double>& values) {

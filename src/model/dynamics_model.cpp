@@ -259,10 +259,17 @@ class GpModel final : public DynamicsModel {
   void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
                      MatrixXd& var) const override {
     const Eigen::Index B = X.rows();
-    MatrixXd in(B, O_ + U_);
+    // Called at every step of every rollout: per-thread buffers, resized (not reallocated) when
+    // the batch shape repeats.
+    thread_local MatrixXd in;
+    thread_local VectorXd x, u, obs, dx, m, v;
+    in.resize(B, O_ + U_);
+    x.resize(E_);
+    u.resize(U_);
+    obs.resize(O_);
+    dx.resize(E_);
     mean.resize(B, E_);
     var.resize(B, E_);
-    VectorXd x(E_), u(U_), obs(O_), dx(E_);
     for (Eigen::Index b = 0; b < B; ++b) {
       x = X.row(b).transpose();
       u = U.row(b).transpose();
@@ -276,7 +283,6 @@ class GpModel final : public DynamicsModel {
         mean.row(b).setZero();
       }
     }
-    VectorXd m, v;
     for (int i = 0; i < E_; ++i) {
       gps_[static_cast<std::size_t>(i)].predict_batch(in, m, v);
       mean.col(i) += m;
