@@ -163,8 +163,6 @@ TEST(Models, RejectMissingPriorAndBadData) {
 
 TEST(GpMi, ExhaustiveSearchOverADiscreteParameterPicksTheActualValue) {
   const auto data = actual_data(2);
-  auto task = std::make_shared<pendubot::SwingUpTask>();
-  auto prior = std::make_shared<pendubot::PendubotPrior>();
   model::PriorParameters p;
   p.names = pendubot::parameter_names();
   p.values = pendubot::preset("tunable").to_phi();  // m2 = 0.75
