@@ -8,33 +8,64 @@
 //   episodes/NNN/real.csv       real trajectory: t, states, action, reward
 //   episodes/NNN/predicted.csv  mean-propagated trajectory on the model that chose the policy
 //   episodes/NNN/policy.csv     policy parameters theta (one per line)
+//   checkpoint.json        state of Algorithm 1 after the last finished episode (drops run --resume)
+//   .lock                  flock()ed by the process writing the directory
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "drops/algo/black_drops.hpp"
+#include "drops/core/errors.hpp"
 #include "drops/io/config.hpp"
 
 namespace drops::app {
 
+/// Thrown when another process holds the run directory's lock (drops run exits with code 3).
+class RunDirectoryBusy : public Error {
+ public:
+  using Error::Error;
+};
+
 class RunDirectory {
  public:
   /// Creates the directory (throws drops::Error if it exists and holds an episodes.csv, or cannot
-  /// be created) and writes config.yaml and the header of episodes.csv.
+  /// be created) and writes config.yaml and the header of episodes.csv. Takes the lock
+  /// (RunDirectoryBusy if another process holds it).
   RunDirectory(const std::filesystem::path& dir, const io::Settings& settings,
                const io::Experiment& experiment);
+  ~RunDirectory();
+  RunDirectory(const RunDirectory&) = delete;
+  RunDirectory& operator=(const RunDirectory&) = delete;
+
+  /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json into
+  /// *state, and removes what was recorded after it (rows of episodes.csv, episodes/NNN folders
+  /// and summary entries of later episodes, e.g. an episode written just before a crash).
+  /// experiment must be the one of DIR/config.yaml. Throws drops::Error when there is no
+  /// checkpoint.json (no episode finished: start the run again) or it does not fit the experiment.
+  static std::unique_ptr<RunDirectory> reopen(const std::filesystem::path& dir,
+                                              const io::Experiment& experiment,
+                                              algo::BlackDropsState* state);
+
   /// Writes every file of one finished episode, then appends its row and rewrites summary.json.
   void record(const algo::EpisodeRecord& rec);
+  /// Writes checkpoint.json (atomically): doubles with 17 significant digits, so a resumed run is
+  /// bit-identical to an uninterrupted one.
+  void save_state(const algo::BlackDropsState& state);
   /// Rewrites summary.json with the final status ("complete", "interrupted" or "failed").
   void finish(const algo::BlackDropsSummary& summary, const std::string& status,
               const std::string& error = "");
   const std::filesystem::path& path() const { return dir_; }
 
  private:
+  RunDirectory(const std::filesystem::path& dir, const io::Experiment& experiment);
+  void lock();
   void write_summary(const std::string& status);
+  int lock_fd_ = -1;
+  double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
   std::filesystem::path dir_;
   io::Experiment experiment_;
   std::ofstream episodes_csv_;

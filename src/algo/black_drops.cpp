@@ -78,7 +78,8 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   std::shared_ptr<const model::MeanFunction> prior,
                                   const model::PriorParameters& prior_parameters,
                                   const BlackDropsOptions& options,
-                                  const BlackDropsCallbacks& callbacks) {
+                                  const BlackDropsCallbacks& callbacks,
+                                  const BlackDropsState* resume) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("Black-DROPS options: " + why);
   if (!task) throw InvalidArgument("run_black_drops: task is null");
@@ -93,12 +94,28 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   VectorXd best_theta;
   double best_return = -std::numeric_limits<double>::infinity();
   const int n = policy.param_dim();
+  int first_episode = 1;
+  if (resume) {
+    if (resume->episodes_done < 1 || resume->episodes_done > options.episodes)
+      throw InvalidArgument("resume: episodes_done = " + std::to_string(resume->episodes_done) +
+                            " is outside [1, " + std::to_string(options.episodes) + "]");
+    check_size("resume: best_theta vs policy parameters", n, resume->best_theta.size());
+    if (resume->data.empty()) throw InvalidArgument("resume: the state holds no transitions");
+    model->restore(resume->model);
+    data = resume->data;
+    best_theta = resume->best_theta;
+    best_return = resume->best_return;
+    summary.first_solved_episode = resume->first_solved_episode;
+    summary.episodes_done = resume->episodes_done;
+    summary.best_real_return = best_return;
+    first_episode = resume->episodes_done + 1;
+  }
   auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
   auto status = [&](int episode, const char* phase, long evals, double best) {
     if (callbacks.on_status) callbacks.on_status(Status{episode, phase, evals, best});
   };
 
-  for (int episode = 1; episode <= options.episodes; ++episode) {
+  for (int episode = first_episode; episode <= options.episodes; ++episode) {
     if (stop()) {
       summary.interrupted = true;
       break;
@@ -202,6 +219,16 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     summary.episodes_done = episode;
     summary.best_real_return = best_return;
     if (callbacks.on_episode) callbacks.on_episode(rec);
+    if (callbacks.on_state) {
+      BlackDropsState st;
+      st.episodes_done = episode;
+      st.data = data;
+      st.best_theta = best_theta;
+      st.best_return = best_return;
+      st.first_solved_episode = summary.first_solved_episode;
+      st.model = model->state();
+      callbacks.on_state(st);
+    }
   }
   summary.seconds = seconds_since(t_run);
   return summary;

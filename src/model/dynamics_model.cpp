@@ -221,6 +221,25 @@ class GpModel final : public DynamicsModel {
   ModelType type() const override { return options_.type; }
   VectorXd phi() const override { return phi_; }
 
+  ModelState state() const override {
+    ModelState st;
+    st.phi = phi_;
+    for (const auto& g : gps_) st.h_params.push_back(g.h_params());
+    return st;
+  }
+
+  void restore(const ModelState& st) override {
+    check_size("restored phi", phi_.size(), st.phi.size());
+    check_size("restored GP count", E_, static_cast<Eigen::Index>(st.h_params.size()));
+    if (!st.phi.allFinite()) throw InvalidArgument("restored phi is not finite");
+    if (prior_) prior_->check_phi(st.phi);
+    std::vector<gp::Gp> gps = gps_;
+    for (std::size_t i = 0; i < gps.size(); ++i) gps[i].set_h_params(st.h_params[i]);
+    gps_ = std::move(gps);
+    phi_ = st.phi;
+    if (prior_) params_.values = phi_;
+  }
+
   ModelSummary learn(const std::vector<Transition>& data, const ModelProgress& progress) override {
     const auto t0 = Clock::now();
     ModelSummary s;
@@ -437,6 +456,17 @@ class SimulatorModel final : public DynamicsModel {
   }
   ModelType type() const override { return options_.type; }
   VectorXd phi() const override { return phi_; }
+
+  ModelState state() const override { return ModelState{phi_, {}}; }
+
+  void restore(const ModelState& st) override {
+    check_size("restored phi", phi_.size(), st.phi.size());
+    if (!st.h_params.empty()) throw InvalidArgument("restored state has GP kernels; model is '" +
+                                                    to_string(options_.type) + "'");
+    if (!st.phi.allFinite()) throw InvalidArgument("restored phi is not finite");
+    prior_->check_phi(st.phi);
+    phi_ = st.phi;
+  }
 
   ModelSummary learn(const std::vector<Transition>& data, const ModelProgress& progress) override {
     const auto t0 = Clock::now();

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,6 +53,18 @@ struct EpisodeRecord {
   long nonfinite_model_steps = 0;   ///< rollout steps stopped by non-finite model predictions
 };
 
+/// Algorithm 1 between two episodes: everything the next episodes depend on. Every random stream
+/// is derived from (seed, episode, ...), so a run continued from the state saved after episode k
+/// produces exactly the episodes k+1.. of an uninterrupted run (drops run --resume).
+struct BlackDropsState {
+  int episodes_done = 0;             ///< completed real episodes (>= 0)
+  std::vector<Transition> data;      ///< every real transition so far, in order
+  VectorXd best_theta;               ///< policy of the best real episode (empty before episode 1)
+  double best_return = -std::numeric_limits<double>::infinity();  ///< its real return
+  int first_solved_episode = 0;      ///< 0 when never solved
+  model::ModelState model;           ///< the model's warm starts after the last learn()
+};
+
 /// Live status for progress displays.
 struct Status {
   int episode = 0;                  ///< episode being prepared (1-based)
@@ -69,6 +82,9 @@ struct BlackDropsCallbacks {
   /// Polled often; returning true interrupts the run after the current step (nothing recorded
   /// is lost: on_episode has already been called for every finished episode).
   std::function<bool()> should_stop;
+  /// After on_episode, with the state needed to continue the run from there. Persist it to
+  /// make the run resumable.
+  std::function<void(const BlackDropsState&)> on_state;
 };
 
 /// Result of run_black_drops.
@@ -85,14 +101,18 @@ struct BlackDropsSummary {
 ///   then, for each next episode: learn the model on all transitions, optimise the policy on the
 ///   model (mean return of MC rollouts, BIPOP-aCMA-ES from the best real episode's theta), run it.
 /// task, real system and policy prototype are borrowed for the call. prior may be null only for
-/// model type gp. Throws InvalidArgument on invalid options or mismatched dimensions; exceptions
-/// from callbacks propagate. Not thread-safe (uses parallel_for internally).
+/// model type gp. With `resume` (a state from on_state of a run with the same options), the run
+/// continues after resume->episodes_done; the summary then covers the whole run but `seconds`
+/// only this call. Throws InvalidArgument on invalid options, mismatched dimensions or a resume
+/// state that does not fit; exceptions from callbacks propagate. Not thread-safe (uses
+/// parallel_for internally).
 BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const rollout::System& real, const policy::Policy& policy,
                                   std::shared_ptr<const model::MeanFunction> prior,
                                   const model::PriorParameters& prior_parameters,
                                   const BlackDropsOptions& options,
-                                  const BlackDropsCallbacks& callbacks = {});
+                                  const BlackDropsCallbacks& callbacks = {},
+                                  const BlackDropsState* resume = nullptr);
 
 /// Maximises the mean model return over theta in [-b, b]^n with BIPOP-aCMA-ES starting from
 /// theta0 (clamped into the box); theta0 itself is also evaluated and returned when no candidate

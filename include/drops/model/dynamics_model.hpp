@@ -80,6 +80,13 @@ struct ModelSummary {
   std::string BriefReport() const;
 };
 
+/// What a model carries from one learn() to the next (warm starts): enough to continue a run
+/// exactly (drops run --resume). Doubles must be stored exactly (17 significant digits).
+struct ModelState {
+  VectorXd phi;                       ///< current prior parameters (dim P; empty for gp)
+  std::vector<VectorXd> h_params;     ///< per output GP, log-space kernel hyper-parameters (empty for mi)
+};
+
 /// Progress during learn(): phase ("gp-mi", "kernels", "mi"), evaluations so far, best score.
 using ModelProgress = std::function<void(const std::string& phase, int evaluations, double best)>;
 
@@ -100,6 +107,12 @@ class DynamicsModel {
                              MatrixXd& var) const = 0;
   /// Current full prior parameters phi (dim P; empty for gp).
   virtual VectorXd phi() const = 0;
+  /// The warm-start state (see ModelState). Not thread-safe with learn().
+  virtual ModelState state() const = 0;
+  /// Restores a state() of a model of the same type and dimensions, as if learn() had been called
+  /// up to that point (the next learn() starts from it). Throws InvalidArgument on mismatched sizes
+  /// or non-finite values. Not thread-safe.
+  virtual void restore(const ModelState& state) = 0;
 };
 
 /// Builds the model of options.type. task gives the GP input (observe(x) concatenated with u);

@@ -1,0 +1,209 @@
+// `drops run --resume`: a run interrupted (SIGINT) or killed (SIGKILL) part-way and continued
+// produces exactly the episodes of an uninterrupted run with the same seed (slow; label "slow").
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/file.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+#include <thread>
+#include <unistd.h>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Small budgets: a 4-episode run takes about a second, so the test stays fast while every part of
+// Algorithm 1 (prior-only episode, GP-MI learning, warm starts, policy search) is exercised.
+const std::string kRun =
+    "run episodes=4 seed=3 threads=1 optimizer.max_evaluations=600 optimizer.restarts=0 "
+    "rollouts.predicted=2";
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d =
+      fs::temp_directory_path() / ("drops-resume-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+int run(const std::string& args, std::string* err_text = nullptr) {
+  const fs::path err = fs::temp_directory_path() / ("drops-resume-err-" + std::to_string(getpid()));
+  const int rc = std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err.string()).c_str());
+  if (err_text) *err_text = slurp(err);
+  return WEXITSTATUS(rc);
+}
+
+/// Starts `drops <args>` in the background; returns its pid.
+pid_t spawn(const std::string& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const std::string cmd = std::string("exec ") + DROPS_BINARY + " " + args + " 2>/dev/null";
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return pid;
+}
+
+int episodes_in_checkpoint(const fs::path& run_dir) {
+  try {
+    const auto j = nlohmann::json::parse(slurp(run_dir / "checkpoint.json"));
+    return j.at("episodes_done").get<int>();
+  } catch (...) {
+    return 0;
+  }
+}
+
+/// Waits until the run's checkpoint holds at least `episodes` episodes (or the process ended).
+void wait_for_checkpoint(pid_t pid, const fs::path& run_dir, int episodes) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (episodes_in_checkpoint(run_dir) < episodes && std::chrono::steady_clock::now() < deadline) {
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+/// episodes.csv without the wall-clock columns (model_learning_s, policy_optimization_s).
+std::string results_of(const fs::path& run_dir) {
+  std::istringstream in(slurp(run_dir / "episodes.csv"));
+  std::string line, out;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ls(line);
+    std::string x;
+    while (std::getline(ls, x, ',')) f.push_back(x);
+    for (std::size_t i = 0; i < f.size(); ++i)
+      if (i != 6 && i != 7) out += f[i] + ",";
+    out += "\n";
+  }
+  return out;
+}
+
+/// Every file of every episode, byte for byte, and the episode table.
+void expect_same_episodes(const fs::path& a, const fs::path& b, int episodes) {
+  EXPECT_EQ(results_of(a), results_of(b));
+  for (int e = 1; e <= episodes; ++e) {
+    char ep[8];
+    std::snprintf(ep, sizeof ep, "%03d", e);
+    for (const char* f : {"real.csv", "predicted.csv", "policy.csv"}) {
+      const fs::path pa = a / "episodes" / ep / f, pb = b / "episodes" / ep / f;
+      ASSERT_TRUE(fs::exists(pa)) << pa;
+      ASSERT_TRUE(fs::exists(pb)) << pb;
+      EXPECT_EQ(slurp(pa), slurp(pb)) << "episode " << ep << " " << f;
+    }
+  }
+  const auto sa = nlohmann::json::parse(slurp(a / "summary.json"));
+  const auto sb = nlohmann::json::parse(slurp(b / "summary.json"));
+  EXPECT_EQ(sb["status"], "complete");
+  EXPECT_EQ(sa["episodes_done"], sb["episodes_done"]);
+  EXPECT_EQ(sa.value("first_solved_episode", 0), sb.value("first_solved_episode", 0));
+  EXPECT_EQ(sa["best_real_return"], sb["best_real_return"]);
+}
+
+}  // namespace
+
+TEST(Resume, InterruptedRunContinuesToTheSameEpisodesAsAnUninterruptedOne) {
+  const fs::path out = fresh_dir("sigint");
+  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name full -q"), 0);
+
+  const pid_t pid = spawn(kRun + " --output " + out.string() + " --name part -q");
+  wait_for_checkpoint(pid, out / "part", 2);
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before it could be interrupted";
+  const auto s = nlohmann::json::parse(slurp(out / "part" / "summary.json"));
+  EXPECT_EQ(s["status"], "interrupted");
+  const int done = s["episodes_done"].get<int>();
+  ASSERT_GE(done, 2);
+  ASSERT_LT(done, 4);
+
+  std::string err;
+  ASSERT_EQ(run("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  expect_same_episodes(out / "full", out / "part", 4);
+  fs::remove_all(out);
+}
+
+TEST(Resume, KilledRunDropsItsUnfinishedEpisodeAndContinuesIdentically) {
+  const fs::path out = fresh_dir("sigkill");
+  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name full -q"), 0);
+  const pid_t pid = spawn(kRun + " --output " + out.string() + " --name part -q");
+  wait_for_checkpoint(pid, out / "part", 1);
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before it could be killed";
+  // A killed run leaves status "running"; simulate the worst case too: a row and an episode
+  // folder written after the last checkpoint (killed between the two writes).
+  const int done = episodes_in_checkpoint(out / "part");
+  ASSERT_GE(done, 1);
+  {
+    std::ofstream csv(out / "part" / "episodes.csv", std::ios::app);
+    csv << done + 1 << ",9.9,1.0,1.0,0,0.5 0.5 0.5 0.5,0.1,0.1,1\n";
+    char ep[8];
+    std::snprintf(ep, sizeof ep, "%03d", done + 1);
+    fs::create_directories(out / "part" / "episodes" / ep);
+    std::ofstream(out / "part" / "episodes" / ep / "real.csv") << "garbage\n";
+  }
+  std::string err;
+  ASSERT_EQ(run("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  expect_same_episodes(out / "full", out / "part", 4);
+  fs::remove_all(out);
+}
+
+TEST(Resume, ACompleteRunCanBeExtendedWithMoreEpisodes) {
+  const fs::path out = fresh_dir("extend");
+  ASSERT_EQ(run(kRun + " episodes=5 --output " + out.string() + " --name five -q"), 0);
+  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name four -q"), 0);
+  std::string err;
+  ASSERT_EQ(run("run --resume " + (out / "four").string() + " episodes=5 -q", &err), 0) << err;
+  expect_same_episodes(out / "five", out / "four", 5);
+  // Resuming a complete run is a no-op that says so.
+  ASSERT_EQ(run("run --resume " + (out / "four").string(), &err), 0) << err;
+  EXPECT_NE(err.find("nothing to do"), std::string::npos) << err;
+  fs::remove_all(out);
+}
+
+TEST(Resume, RefusesWhatItCannotContinue) {
+  const fs::path out = fresh_dir("refuse");
+  std::string err;
+  // Not a run directory.
+  EXPECT_EQ(run("run --resume " + (out / "nothing").string(), &err), 1);
+  EXPECT_NE(err.find("not a run directory"), std::string::npos) << err;
+  ASSERT_EQ(run(kRun + " episodes=1 --output " + out.string() + " --name one -q"), 0);
+  // Changing anything but episodes/threads would break the equivalence with an uninterrupted run.
+  EXPECT_EQ(run("run --resume " + (out / "one").string() + " seed=4", &err), 2);
+  EXPECT_NE(err.find("'seed'"), std::string::npos) << err;
+  // A directory whose process still holds the lock.
+  {
+    const int fd = ::open((out / "one" / ".lock").c_str(), O_RDWR);
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+    EXPECT_EQ(run("run --resume " + (out / "one").string() + " episodes=2", &err), 3);
+    EXPECT_NE(err.find("in use"), std::string::npos) << err;
+    ::close(fd);
+  }
+  // No episode ever finished: nothing to continue.
+  fs::remove(out / "one" / "checkpoint.json");
+  EXPECT_EQ(run("run --resume " + (out / "one").string() + " episodes=2", &err), 1);
+  EXPECT_NE(err.find("no checkpoint.json"), std::string::npos) << err;
+  fs::remove_all(out);
+}
