@@ -289,36 +289,53 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
 
 namespace {
 
-// Forward substitution L V = V for a row-major n x 16c block V (16 query columns per pass), returning
-// the column sums of squares of the solution in ss (dim = V.cols()). Lt: column-major n x n whose
+// Forward substitution L V = V on W query columns [c, c + W) of a row-major n x width block V,
+// writing the column sums of squares of the solution to ss[c .. c + W). Lt: column-major n x n whose
 // column i holds row i of L above the diagonal (L^T in the strict upper part) and L(i, i) on the
-// diagonal. Left-looking with four independent accumulators per pass to hide the FMA latency; this is
-// several times faster than a generic TRSM for the small blocks (B = 8) of the rollouts; one pack of
-// 8 doubles is one AVX-512 register (two AVX2 registers).
-void forward_substitution_8(const MatrixXd& Lt, double* V, Index n, Index width, double* ss) {
-  using Pack = Eigen::Matrix<double, 8, 1>;
-  for (Index c = 0; c < width; c += 8) {
-    Pack acc_ss = Pack::Zero();
-    for (Index i = 0; i < n; ++i) {
-      const double* li = Lt.data() + i * n;  // L(i, 0..i-1)
-      Pack a0 = Eigen::Map<const Pack>(V + i * width + c);
-      Pack a1 = Pack::Zero(), a2 = Pack::Zero(), a3 = Pack::Zero();
-      Index k = 0;
-      for (; k + 3 < i; k += 4) {
-        a0.noalias() -= li[k] * Eigen::Map<const Pack>(V + k * width + c);
-        a1.noalias() -= li[k + 1] * Eigen::Map<const Pack>(V + (k + 1) * width + c);
-        a2.noalias() -= li[k + 2] * Eigen::Map<const Pack>(V + (k + 2) * width + c);
-        a3.noalias() -= li[k + 3] * Eigen::Map<const Pack>(V + (k + 3) * width + c);
-      }
-      for (; k < i; ++k) a0.noalias() -= li[k] * Eigen::Map<const Pack>(V + k * width + c);
-      a0 += a2;
-      a1 += a3;
-      a0 = (a0 + a1) / li[i];
-      Eigen::Map<Pack>(V + i * width + c) = a0;
-      acc_ss += a0.cwiseAbs2();
+// diagonal. Left-looking with four independent accumulators to hide the FMA latency; several times
+// faster than a generic TRSM for the small blocks of the rollouts. One pack of 8 doubles is one
+// AVX-512 register. Every lane performs the same operations in the same order whatever W is, so a
+// query's variance does not depend on how the batch was split.
+template <int W>
+void forward_substitution(const MatrixXd& Lt, double* V, Index n, Index width, Index c, double* ss) {
+  using Pack = Eigen::Matrix<double, W, 1>;
+  Pack acc_ss = Pack::Zero();
+  for (Index i = 0; i < n; ++i) {
+    const double* li = Lt.data() + i * n;  // L(i, 0..i-1)
+    Pack a0 = Eigen::Map<const Pack>(V + i * width + c);
+    Pack a1 = Pack::Zero(), a2 = Pack::Zero(), a3 = Pack::Zero();
+    Index k = 0;
+    for (; k + 3 < i; k += 4) {
+      a0.noalias() -= li[k] * Eigen::Map<const Pack>(V + k * width + c);
+      a1.noalias() -= li[k + 1] * Eigen::Map<const Pack>(V + (k + 1) * width + c);
+      a2.noalias() -= li[k + 2] * Eigen::Map<const Pack>(V + (k + 2) * width + c);
+      a3.noalias() -= li[k + 3] * Eigen::Map<const Pack>(V + (k + 3) * width + c);
     }
-    Eigen::Map<Pack>(ss + c) = acc_ss;
+    for (; k < i; ++k) a0.noalias() -= li[k] * Eigen::Map<const Pack>(V + k * width + c);
+    a0 += a2;
+    a1 += a3;
+    a0 = (a0 + a1) / li[i];
+    Eigen::Map<Pack>(V + i * width + c) = a0;
+    acc_ss += a0.cwiseAbs2();
   }
+  Eigen::Map<Pack>(ss + c) = acc_ss;
+}
+
+// The first `used` columns of V (row stride width): packs of 8, then one of 4, 2 and 1 for the tail
+// (a CMA-ES population of 17 in batches of 8 leaves a batch of 1: no work on padding lanes).
+void forward_substitution_columns(const MatrixXd& Lt, double* V, Index n, Index width, Index used,
+                                  double* ss) {
+  Index c = 0;
+  for (; c + 8 <= used; c += 8) forward_substitution<8>(Lt, V, n, width, c, ss);
+  if (c + 4 <= used) {
+    forward_substitution<4>(Lt, V, n, width, c, ss);
+    c += 4;
+  }
+  if (c + 2 <= used) {
+    forward_substitution<2>(Lt, V, n, width, c, ss);
+    c += 2;
+  }
+  if (c < used) forward_substitution<1>(Lt, V, n, width, c, ss);
 }
 
 }  // namespace
@@ -354,7 +371,7 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
   KT.noalias() = Xa_ * Qa.transpose();  // -1/2 squared scaled distances
   KT = KT.array().min(0.0).exp() * sf2;
   mean.noalias() = KT.leftCols(B).transpose() * alpha_;
-  forward_substitution_8(L_, KT.data(), n, Bp, ss.data());
+  forward_substitution_columns(L_, KT.data(), n, Bp, B, ss.data());
   variance = (sf2 - ss.head(B).array()).max(0.0).matrix();
 }
 
