@@ -59,6 +59,10 @@ opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::Dynami
   };
   const VectorXd start = theta0.cwiseMax(lower).cwiseMin(upper);
   auto summary = opt::cmaes_minimize_batch(objective, start, lower, upper, co, on_gen);
+  if (!options.keep_start_point) {
+    if (nonfinite_steps) *nonfinite_steps += stats.nonfinite_steps;
+    return summary;
+  }
   // CMA-ES samples around the start point but never evaluates it, and with sigma0 = b it may end
   // in a worse optimum than the best policy so far: keep the start when it scores better.
   std::vector<double> start_value;

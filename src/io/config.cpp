@@ -96,6 +96,9 @@ std::vector<KeySpec> build_schema() {
   add({"optimizer.bipop", "bool", "true", 0, 0, {}, "-", "BIPOP restarts (false = IPOP)"});
   add({"optimizer.uncertainty_handling", "bool", "false", 0, 0, {}, "-",
        "Hansen et al. 2009 uncertainty handling for the noisy rollout objective"});
+  add({"optimizer.keep_start", "bool", "false", 0, 0, {}, "-",
+       "also evaluate the start point (the best real episode's policy) on the model and run it again "
+       "when no candidate beats it; off in the paper (a deterministic system then gives no new data)"});
   add({"optimizer.prior_optimizations", "int", "2", 1, 100, {}, "-",
        "with a prior: successive optimizations on the prior alone for episode 1"});
   add({"rollouts.count", "int", "1", 1, 10000, {}, "-",
@@ -407,6 +410,7 @@ Experiment make_experiment(const Settings& st) {
   a.cmaes.bipop = boolean("optimizer.bipop");
   a.cmaes.uncertainty_handling = boolean("optimizer.uncertainty_handling");
   a.prior_optimizations = static_cast<int>(integer("optimizer.prior_optimizations"));
+  a.keep_start_point = boolean("optimizer.keep_start");
   a.rollouts.rollouts = static_cast<int>(integer("rollouts.count"));
   a.rollouts.clip = dbl("rollouts.clip");
   a.rollouts.batch = static_cast<int>(integer("rollouts.batch"));

@@ -27,6 +27,10 @@ struct BlackDropsOptions {
   /// With a prior: number of successive optimizations on the prior alone for episode 1 (the second
   /// restarts from the first's best), >= 1. The reference did 2.
   int prior_optimizations = 2;
+  /// Also evaluate the optimizer's start point (the best real episode's theta) on the model and keep
+  /// it when no candidate beats it. Off in the paper: on a deterministic system, running the same
+  /// policy again brings no new data, and a run can stall on it for many episodes.
+  bool keep_start_point = false;
   /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy.
   int predicted_rollouts = 20;
   /// Returns true when every field is valid; otherwise false and the reason in *why.
@@ -115,10 +119,10 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const BlackDropsState* resume = nullptr);
 
 /// Maximises the mean model return over theta in [-b, b]^n with BIPOP-aCMA-ES starting from
-/// theta0 (clamped into the box); theta0 itself is also evaluated and returned when no candidate
-/// beats it (run_stop_reasons then ends with "StartPointKept"). Returns the CMA-ES summary
-/// (best_value is the NEGATED best return; evaluations include the start point's). Exposed for
-/// benchmarks and tests.
+/// theta0 (clamped into the box). With options.keep_start_point, theta0 itself is also evaluated and
+/// returned when no candidate beats it (run_stop_reasons then ends with "StartPointKept"; the
+/// evaluations include the start point's). Returns the CMA-ES summary (best_value is the NEGATED
+/// best return). Exposed for benchmarks and tests.
 opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
                                   const policy::Policy& policy, const VectorXd& theta0,
                                   const BlackDropsOptions& options, std::uint64_t seed,
