@@ -25,7 +25,7 @@ TEST(NeuralNetPolicy, MatchesANaiveForwardPass) {
   p.set_params(theta);
   VectorXd obs(6), u(1);
   for (int i = 0; i < 6; ++i) obs[i] = rng.uniform(-3, 3);
-  p.act(obs, u);
+  p.act(obs, 0.0, u);
   // naive: W1 is 10 x 7 row-major, then W2 1 x 11
   double out = theta[70 + 10];
   for (int j = 0; j < 10; ++j) {
@@ -40,7 +40,7 @@ TEST(NeuralNetPolicy, OutputIsBounded) {
   policy::NeuralNetPolicy p;
   p.set_params(VectorXd::Constant(81, 5.0));
   VectorXd obs = VectorXd::Constant(6, 100.0), u(1);
-  p.act(obs, u);
+  p.act(obs, 0.0, u);
   EXPECT_LE(std::abs(u[0]), 3.5);
   EXPECT_GT(std::abs(u[0]), 3.4);
 }

@@ -49,7 +49,7 @@ void NeuralNetPolicy::set_params(const VectorXd& theta) {
     for (int c = 0; c < w2_.cols(); ++c) w2_(r, c) = theta[k++];
 }
 
-void NeuralNetPolicy::act(const VectorXd& obs, Eigen::Ref<VectorXd> u) const {
+void NeuralNetPolicy::act(const VectorXd& obs, double /*t*/, Eigen::Ref<VectorXd> u) const {
   const int O = options_.observation_dim, H = options_.hidden_units;
   constexpr int kStack = 64;
   double stack_h[kStack];

@@ -19,12 +19,16 @@ Trajectory run_episode(const Task& task, const System& system, const policy::Pol
   tr.rewards.setZero(H);
   VectorXd x = task.initial_state(), obs(task.observation_dim()), u(U);
   tr.states.row(0) = x.transpose();
+  const std::unique_ptr<EpisodeSession> session = system.begin_episode(x);
+  if (!session) throw InvalidArgument("run_episode: System::begin_episode returned null");
+  const double dt = task.dt();
   bool alive = true;
   for (int t = 0; t < H; ++t) {
     if (alive) {
       task.observe(x, obs);
-      policy.act(obs, u);
-      VectorXd next = system.step(x, u, rng);
+      policy.act(obs, t * dt, u);
+      VectorXd next = session->step(u, rng);
+      check_size("run_episode: state from System", E, next.size());
       if (!next.allFinite()) {
         alive = false;
         if (nonfinite_steps) ++*nonfinite_steps;
@@ -90,11 +94,12 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
     for (Eigen::Index b = 0; b < n; ++b) X.row(b) = x0.transpose();
     std::vector<char> alive(static_cast<std::size_t>(n), 1);
     VectorXd x(E), obs(O), u(U);
+    const double dt = task.dt();
     for (int t = 0; t < H; ++t) {
       for (Eigen::Index b = 0; b < n; ++b) {
         x = X.row(b).transpose();
         task.observe(x, obs);
-        pols[static_cast<std::size_t>(b)]->act(obs, u);
+        pols[static_cast<std::size_t>(b)]->act(obs, t * dt, u);
         Uc.row(b) = u.transpose();
       }
       model.predict_batch(X, Uc, mean, var);

@@ -87,8 +87,30 @@ void SimulatorPool::give_back(std::unique_ptr<PriorSimulator> sim) {
 
 // ---- HexapodPrior ----
 
+bool StateGuardOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why != nullptr) *why = m;
+    return false;
+  };
+  if (policy != StateGuardPolicy::kStop && policy != StateGuardPolicy::kClamp)
+    return fail("StateGuardOptions.policy must be kStop or kClamp");
+  if (!(std::isfinite(min_height) && std::isfinite(max_height) && min_height < max_height)) {
+    std::ostringstream s;
+    s << "StateGuardOptions: need finite min_height < max_height, got " << min_height << ", "
+      << max_height;
+    return fail(s.str());
+  }
+  const StateBounds& b = bounds;
+  for (double v : {b.joint_angle_margin, b.max_joint_velocity, b.max_position,
+                   b.max_linear_velocity, b.max_angular_velocity}) {
+    if (!(std::isfinite(v) && v >= 0.0)) return fail("StateGuardOptions.bounds must be >= 0");
+  }
+  return true;
+}
+
 bool HexapodPriorOptions::IsValid(std::string* why) const {
   if (!simulator.IsValid(why)) return false;
+  if (!guard.IsValid(why)) return false;
   if (pool_capacity < 0) {
     if (why != nullptr) {
       *why = "HexapodPriorOptions.pool_capacity must be >= 0, got " + std::to_string(pool_capacity);
@@ -135,15 +157,70 @@ void HexapodPrior::evaluate(const VectorXd& x, const VectorXd& u, const VectorXd
   check_size("HexapodPrior::evaluate u", kNumJoints, u.size());
   check_size("HexapodPrior::evaluate dx", kStateDim, dx.size());
   check_phi(phi);
-  if (!x.allFinite()) {
+  evaluations_.fetch_add(1, std::memory_order_relaxed);
+  VectorXd repaired;
+  const bool ok = guard_state(x, &repaired);
+  if (!ok && (options_.guard.policy == StateGuardPolicy::kStop || !x.allFinite())) {
+    stopped_.fetch_add(1, std::memory_order_relaxed);
     dx.setConstant(std::numeric_limits<double>::quiet_NaN());
     return;
   }
+  if (!ok) clamped_.fetch_add(1, std::memory_order_relaxed);
   SimulatorPool::Lease sim = pool(static_cast<int>(phi[0])).acquire();
-  sim->set_state(x);
+  sim->set_state(ok ? x : repaired);
   sim->step(u);
   sim->state(dx);
   dx -= x;
+}
+
+bool HexapodPrior::guard_state(const VectorXd& x, VectorXd* repaired, std::string* why) const {
+  check_size("HexapodPrior::guard_state x", kStateDim, x.size());
+  const StateGuardOptions& g = options_.guard;
+  static const HexapodSpec kIntact = HexapodSpec::intact();  // joint limits do not depend on phi
+  bool ok = check_state(x, kIntact, why, g.bounds);
+  const double z = x[kBodyPos + 2];
+  if (ok && !(z >= g.min_height && z <= g.max_height)) {
+    ok = false;
+    if (why != nullptr) {
+      std::ostringstream s;
+      s << "hexapod state: body height x[38] = " << z << " is outside [" << g.min_height << ", "
+        << g.max_height << "]";
+      *why = s.str();
+    }
+  }
+  if (!ok && repaired != nullptr) {
+    constexpr double kPi = 3.14159265358979323846;
+    VectorXd& r = *repaired;
+    r = x;
+    auto clip = [&](int i, double lo, double hi) { r[i] = std::clamp(r[i], lo, hi); };
+    for (int j = 0; j < kNumJoints; ++j) {
+      const double lim = kIntact.joint_limit(j % kJointsPerLeg);
+      clip(kJointPos + j, -lim, lim);
+      clip(kJointVel + j, -g.bounds.max_joint_velocity, g.bounds.max_joint_velocity);
+    }
+    for (int i = 0; i < 3; ++i) {
+      clip(kBodyPos + i, -g.bounds.max_position, g.bounds.max_position);
+      if (i < 2) clip(kBodyRpy + i, -kPi, kPi);
+      clip(kBodyLinVel + i, -g.bounds.max_linear_velocity, g.bounds.max_linear_velocity);
+      clip(kBodyAngVel + i, -g.bounds.max_angular_velocity, g.bounds.max_angular_velocity);
+    }
+    clip(kBodyPos + 2, g.min_height, g.max_height);
+  }
+  return ok;
+}
+
+StateGuardCounts HexapodPrior::guard_counts() const {
+  StateGuardCounts c;
+  c.evaluations = evaluations_.load(std::memory_order_relaxed);
+  c.stopped = stopped_.load(std::memory_order_relaxed);
+  c.clamped = clamped_.load(std::memory_order_relaxed);
+  return c;
+}
+
+void HexapodPrior::reset_guard_counts() {
+  evaluations_.store(0, std::memory_order_relaxed);
+  stopped_.store(0, std::memory_order_relaxed);
+  clamped_.store(0, std::memory_order_relaxed);
 }
 
 std::unique_ptr<model::MeanFunction> HexapodPrior::clone() const {

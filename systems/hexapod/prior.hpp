@@ -13,6 +13,7 @@
 /// policy's business, e.g. an observation carrying the step index; that is the next part of
 /// issue 4.)
 
+#include <atomic>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -72,10 +73,40 @@ class SimulatorPool {
   int created_ = 0;
 };
 
+/// What HexapodPrior::evaluate does with a state x that fails the state guard (issue 4, item 6).
+enum class StateGuardPolicy {
+  /// Return an all-NaN dx: the rollout code counts it (RolloutStats::nonfinite_steps) and stops
+  /// that rollout (its remaining rewards are 0).
+  kStop,
+  /// Repair x into the plausible box (see StateGuardOptions) and simulate from the repaired state;
+  /// dx is taken relative to the original x, so x + dx is the successor of the repaired state. A
+  /// non-finite x cannot be repaired and is stopped as under kStop.
+  kClamp,
+};
+
+/// The state guard of HexapodPrior: x enters the simulator only if check_state(x, spec, bounds)
+/// holds and the body height x[38] is in [min_height, max_height].
+struct StateGuardOptions {
+  StateGuardPolicy policy = StateGuardPolicy::kStop;
+  StateBounds bounds;       ///< see simulator.hpp
+  double min_height = 0.0;  ///< m; the body centre below the ground plane is implausible
+  double max_height = 1.0;  ///< m, > min_height; the robot cannot jump higher than this
+  /// True when heights are finite and ordered and bounds are positive; else false with *why.
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+/// Counts of the state guard since construction (or reset_guard_counts).
+struct StateGuardCounts {
+  long evaluations = 0;  ///< calls of evaluate()
+  long stopped = 0;      ///< states answered with NaN (kStop, or non-finite under kClamp)
+  long clamped = 0;      ///< states repaired under kClamp
+};
+
 /// Options of HexapodPrior.
 struct HexapodPriorOptions {
-  PriorOptions simulator;  ///< settings of every prior simulator (settings.md §6 defaults)
-  int pool_capacity = 0;   ///< simulators per prior (per removed-leg value); 0: hardware threads
+  PriorOptions simulator;   ///< settings of every prior simulator (settings.md §6 defaults)
+  int pool_capacity = 0;    ///< simulators per prior (per removed-leg value); 0: hardware threads
+  StateGuardOptions guard;  ///< validation of x before it enters the simulator
   /// True when simulator options are valid and pool_capacity >= 0; else false with *why.
   bool IsValid(std::string* why = nullptr) const;
 };
@@ -83,10 +114,12 @@ struct HexapodPriorOptions {
 /// M(x, u; phi) = x' - x where x' is the prior simulator's state after set_state(x) and one step
 /// of 0.1 s towards the targets u. x: dim 48 (simulator.hpp), u: dim 18 target joint angles (rad),
 /// phi = [removed_leg] with removed_leg in {-1 (intact), 0, ..., 5}. The yaw entry of dx is the
-/// unwrapped change (small, no 2 pi jumps). A non-finite x gives an all-NaN dx (callers count
-/// these, MeanFunction contract). evaluate() is thread-safe: each call leases a simulator of the
-/// wanted prior from a pool (one pool per value of phi, built on first use), so no DART world is
-/// shared between threads, and results do not depend on which copy or thread served the call.
+/// unwrapped change (small, no 2 pi jumps). Every x first passes the state guard
+/// (options.guard): an implausible x is stopped (all-NaN dx, which callers count, MeanFunction
+/// contract) or repaired, by the configured StateGuardPolicy, and counted (guard_counts()).
+/// evaluate() is thread-safe: each call leases a simulator of the wanted prior from a pool (one
+/// pool per value of phi, built on first use), so no DART world is shared between threads, and
+/// results do not depend on which copy or thread served the call.
 class HexapodPrior final : public model::MeanFunction {
  public:
   /// Throws InvalidArgument when options are invalid.
@@ -101,7 +134,16 @@ class HexapodPrior final : public model::MeanFunction {
   /// u or an invalid phi.
   void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
                 Eigen::Ref<VectorXd> dx) const override;
-  /// Independent copy with the same options and its own (empty) pools.
+  /// The state guard's counters (atomic; readable while other threads evaluate).
+  StateGuardCounts guard_counts() const;
+  /// Sets the state guard's counters to zero.
+  void reset_guard_counts();
+  /// Applies the guard to x (dim 48) for the intact robot's limits: returns true when x passes;
+  /// otherwise false, with *repaired (if not null) set to the kClamp repair of x (only meaningful
+  /// when x is finite) and the reason in *why (if not null). Does not count. Thread-safe.
+  bool guard_state(const VectorXd& x, VectorXd* repaired = nullptr,
+                   std::string* why = nullptr) const;
+  /// Independent copy with the same options and its own (empty) pools and zero counters.
   std::unique_ptr<model::MeanFunction> clone() const override;
   /// The GP-MI search space: removed_leg, discrete, choices {-1, 0, ..., 5}, starting at -1.
   static model::PriorParameters prior_parameters();
@@ -113,6 +155,9 @@ class HexapodPrior final : public model::MeanFunction {
   HexapodPriorOptions options_;
   mutable std::mutex pools_mutex_;
   mutable std::unique_ptr<SimulatorPool> pools_[kNumLegs + 1];
+  mutable std::atomic<long> evaluations_{0};
+  mutable std::atomic<long> stopped_{0};
+  mutable std::atomic<long> clamped_{0};
 };
 
 }  // namespace drops::hexapod

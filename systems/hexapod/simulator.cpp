@@ -99,12 +99,37 @@ bool check_state(const Eigen::VectorXd& x, const HexapodSpec& spec, std::string*
   return true;
 }
 
+bool ServoOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why != nullptr) *why = m;
+    return false;
+  };
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  auto nonneg = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  if (!positive(kp)) return fail("ServoOptions.kp must be > 0, got " + str(kp));
+  if (!nonneg(kd)) return fail("ServoOptions.kd must be >= 0, got " + str(kd));
+  if (!positive(stall_torque))
+    return fail("ServoOptions.stall_torque must be > 0, got " + str(stall_torque));
+  if (!positive(no_load_speed))
+    return fail("ServoOptions.no_load_speed must be > 0, got " + str(no_load_speed));
+  if (!nonneg(viscous_friction)) {
+    return fail("ServoOptions.viscous_friction must be >= 0, got " + str(viscous_friction));
+  }
+  if (!nonneg(coulomb_friction)) {
+    return fail("ServoOptions.coulomb_friction must be >= 0, got " + str(coulomb_friction));
+  }
+  return true;
+}
+
 bool PriorOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& m) {
     if (why != nullptr) *why = m;
     return false;
   };
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (actuation != Actuation::kVelocity && actuation != Actuation::kServo)
+    return fail("PriorOptions.actuation must be kVelocity or kServo");
+  if (actuation == Actuation::kServo && !servo.IsValid(why)) return false;
   if (!positive(physics_dt))
     return fail("PriorOptions.physics_dt must be > 0, got " + str(physics_dt));
   if (!positive(control_dt))
@@ -157,6 +182,11 @@ PriorSimulator::PriorSimulator(const HexapodSpec& spec, const PriorOptions& opti
   spec.check();
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument(why);
+  const bool servo = options.actuation == Actuation::kServo;
+  if (servo && options.servo.stall_torque > spec.max_torque) {
+    throw InvalidArgument("PriorSimulator: servo.stall_torque (" + str(options.servo.stall_torque) +
+                          ") exceeds spec.max_torque (" + str(spec.max_torque) + ")");
+  }
   Impl& m = *impl_;
   m.spec = spec;
   m.options = options;
@@ -178,7 +208,12 @@ PriorSimulator::PriorSimulator(const HexapodSpec& spec, const PriorOptions& opti
       if (leg.removed) continue;
       dart::dynamics::Joint* joint = m.robot->getJoint(joint_name(k, j));
       joint->setActuatorType(m.blocked[idx] ? dart::dynamics::Joint::LOCKED
+                             : servo        ? dart::dynamics::Joint::FORCE
                                             : dart::dynamics::Joint::VELOCITY);
+      if (servo && !m.blocked[idx]) {
+        joint->setDampingCoefficient(0, options.servo.viscous_friction);
+        joint->setCoulombFriction(0, options.servo.coulomb_friction);
+      }
       m.dofs[idx] = joint->getDof(0);
     }
   }
@@ -231,10 +266,20 @@ void PriorSimulator::step(const Eigen::VectorXd& q_target) {
     const double v = gain * error;
     return m.options.clip_velocity_command ? std::clamp(v, -vmax, vmax) : v;
   };
+  const bool servo = m.options.actuation == Actuation::kServo;
+  const ServoOptions& so = m.options.servo;
+  auto torque = [&](double error, double dq) {
+    const double tau = so.kp * error - so.kd * dq;
+    const double hi = std::min(so.stall_torque, so.stall_torque * (1.0 - dq / so.no_load_speed));
+    const double lo = std::max(-so.stall_torque, -so.stall_torque * (1.0 + dq / so.no_load_speed));
+    return std::clamp(tau, std::min(lo, 0.0), std::max(hi, 0.0));
+  };
   for (int s = 0; s < m.substeps; ++s) {
     for (int i = 0; i < kNumJoints; ++i) {
       if (m.dofs[i] != nullptr) {
-        if (!m.blocked[i]) m.dofs[i]->setCommand(command(target[i] - m.dofs[i]->getPosition()));
+        if (m.blocked[i]) continue;
+        const double error = target[i] - m.dofs[i]->getPosition();
+        m.dofs[i]->setCommand(servo ? torque(error, m.dofs[i]->getVelocity()) : command(error));
       } else {
         // A removed leg's servo moves without load: the same command, reached instantly.
         m.free_dq[i] = command(target[i] - m.free_q[i]);

@@ -65,6 +65,35 @@ struct StateBounds {
 bool check_state(const Eigen::VectorXd& x, const HexapodSpec& spec, std::string* why = nullptr,
                  const StateBounds& bounds = {});
 
+/// How the leg joints are driven.
+enum class Actuation {
+  /// The prior of settings.md §6: DART VELOCITY actuators (infinite torque) commanded
+  /// (q_target - q) / (velocity_gain_period * physics_dt), clipped to +-max_velocity.
+  kVelocity,
+  /// A position-controlled servo (the "real" robot of real_robot.hpp): a PD loop on a torque
+  /// motor, tau = kp (q_target - q) - kd dq, limited by the motor's torque-speed line
+  /// (ServoOptions),
+  /// applied through DART FORCE actuators, plus joint viscous and Coulomb friction.
+  kServo,
+};
+
+/// The servo of Actuation::kServo (ours; Dynamixel MX-28-class numbers, see real_robot.hpp).
+/// Available motor torque: tau in [-stall_torque (1 + dq / no_load_speed),
+/// stall_torque (1 - dq / no_load_speed)], each side clipped to +-stall_torque (a DC motor's
+/// torque-speed line: no torque in the direction of motion at no_load_speed, so joints cannot be
+/// driven faster than it; DART also enforces the skeleton's +-max_velocity limit).
+struct ServoOptions {
+  double kp = 1.2;             ///< proportional gain, N m / rad, > 0
+  double kd = 0.03;            ///< derivative gain, N m s / rad, >= 0
+  double stall_torque = 2.5;   ///< N m, in (0, spec.max_torque]
+  double no_load_speed = 7.0;  ///< rad/s, > 0
+  double viscous_friction =
+      0.02;  ///< joint damping (DART setDampingCoefficient), N m s / rad, >= 0
+  double coulomb_friction = 0.05;  ///< joint dry friction (DART setCoulombFriction), N m, >= 0
+  /// True when every field is in range; otherwise false with the reason in *why (if not null).
+  bool IsValid(std::string* why = nullptr) const;
+};
+
 /// Options of the prior simulator; defaults are settings.md §6.
 struct PriorOptions {
   double physics_dt = 0.01;      ///< DART time step, s, > 0
@@ -79,13 +108,20 @@ struct PriorOptions {
   /// and the robot's 7 rad/s limit but not whether the prior applied the limit; we apply it (a
   /// target jump of pi/4 would otherwise ask for 25 rad/s). Set false for an unclipped prior.
   bool clip_velocity_command = true;
+  /// kVelocity for the prior (settings.md §6); kServo for the "real" robot (real_robot.hpp).
+  Actuation actuation = Actuation::kVelocity;
+  /// Servo model, used when actuation == kServo.
+  ServoOptions servo;
   /// True when every field is in range; otherwise false with the reason in *why (if not null).
   bool IsValid(std::string* why = nullptr) const;
 };
 
 /// The prior simulator of one HexapodSpec (intact or damaged): a DART world with the robot and the
 /// ground. Joints are DART VELOCITY actuators (the commanded velocity is reached in one physics
-/// step whatever the torque); a blocked joint is LOCKED at its angle. A step is a function of the
+/// step whatever the torque), or torque-limited PD servos with options.actuation == kServo (the
+/// same parametrised simulator then plays the "real" robot, real_robot.hpp); a blocked joint is
+/// LOCKED at its angle. The joints of a removed leg follow the velocity law kinematically under
+/// both actuations (an unloaded servo). A step is a function of the
 /// current state x and the targets only (no contact caching), so set_state(x); step(u) evaluates
 /// the prior M(x, u) reproducibly. Not thread-safe: use one instance per thread (see prior.hpp).
 class PriorSimulator {

@@ -19,8 +19,10 @@ class Policy {
   /// Sets theta (dim param_dim()). Throws InvalidArgument on wrong size or non-finite entries.
   virtual void set_params(const VectorXd& theta) = 0;
   virtual const VectorXd& params() const = 0;
-  /// u = pi(obs | theta); obs: dim O, u: dim U.
-  virtual void act(const VectorXd& obs, Eigen::Ref<VectorXd> u) const = 0;
+  /// u = pi(obs, t | theta); obs: dim O, u: dim U. t: time since the start of the episode in s
+  /// (step index * task dt; run_episode and evaluate_policies pass it), for open-loop policies
+  /// such as the hexapod's periodic gait; feedback policies ignore it.
+  virtual void act(const VectorXd& obs, double t, Eigen::Ref<VectorXd> u) const = 0;
   virtual std::unique_ptr<Policy> clone() const = 0;
 };
 
@@ -50,7 +52,8 @@ class NeuralNetPolicy final : public Policy {
   int param_dim() const override;
   void set_params(const VectorXd& theta) override;
   const VectorXd& params() const override { return theta_; }
-  void act(const VectorXd& obs, Eigen::Ref<VectorXd> u) const override;
+  /// Ignores t (a feedback policy).
+  void act(const VectorXd& obs, double t, Eigen::Ref<VectorXd> u) const override;
   std::unique_ptr<Policy> clone() const override;
 
  private:

@@ -11,8 +11,9 @@
 
 namespace drops::rollout {
 
-/// Runs one episode of task.horizon() steps from task.initial_state() on `system` with `policy`:
-/// u_t = pi(observe(x_t)), x_{t+1} = system.step(x_t, u_t), r_t = reward(x_{t+1}).
+/// Runs one episode of task.horizon() steps from task.initial_state() on `system` with `policy`,
+/// through one session s = system.begin_episode(x_0) (the stateless default for model systems):
+/// u_t = pi(observe(x_t), t * dt), x_{t+1} = s.step(u_t), r_t = reward(x_{t+1}).
 /// A non-finite state ends the episode early: the remaining states repeat the last finite one and
 /// earn reward 0, and *nonfinite_steps (if given) is incremented. Thread-safe if system is.
 Trajectory run_episode(const Task& task, const System& system, const policy::Policy& policy,
@@ -52,6 +53,7 @@ struct RolloutStats {
 };
 
 /// Mean return of options.rollouts Monte-Carlo rollouts on `model` for each policy parameter vector
+/// (the policy gets the time t * task.dt() at step t, as in run_episode)
 /// thetas[k] (dim policy.param_dim()), using the random stream seeds[k] (rollout r uses
 /// derive_seed(seeds[k], {r})). Rollouts are batched (options.batch) and run in parallel; the
 /// result is independent of the thread count. Non-finite predictions stop that rollout (remaining

@@ -44,6 +44,20 @@ class Task {
   virtual bool solved(const Trajectory& trajectory) const = 0;
 };
 
+class System;
+
+/// One episode in progress on a System. A physical robot has state that the recorded state x does
+/// not carry (true versus measured state, contacts, actuator internals), so run_episode() advances
+/// an episode through a session that owns it, rather than through the stateless System::step.
+/// Not thread-safe: one session per episode (System::begin_episode may be called concurrently).
+class EpisodeSession {
+ public:
+  virtual ~EpisodeSession() = default;
+  /// Applies u (dim U) over one control period from the session's current state and returns the
+  /// next state as recorded (dim E; e.g. a noisy measurement). May draw from rng.
+  virtual VectorXd step(const VectorXd& u, Rng& rng) = 0;
+};
+
 /// The system a policy is run on: the "real" robot, or a learned model wrapped as a system.
 /// step() may be stochastic and draws from rng. Implementations are thread-safe for const calls.
 class System {
@@ -51,6 +65,30 @@ class System {
   virtual ~System() = default;
   /// Next state from state x (dim E) under action u (dim U), held over one control period.
   virtual VectorXd step(const VectorXd& x, const VectorXd& u, Rng& rng) const = 0;
+  /// Starts an episode at x0 (dim E). The default session is stateless: each of its steps returns
+  /// x <- step(x, u, rng) from the last returned state, so model systems need not override this.
+  /// Systems with hidden state (a robot) override it. Thread-safe for const systems.
+  virtual std::unique_ptr<EpisodeSession> begin_episode(const VectorXd& x0) const;
 };
+
+namespace detail {
+/// The default session of System::begin_episode (Markovian in the recorded state).
+class StatelessSession final : public EpisodeSession {
+ public:
+  StatelessSession(const System& system, const VectorXd& x0) : system_(system), x_(x0) {}
+  VectorXd step(const VectorXd& u, Rng& rng) override {
+    x_ = system_.step(x_, u, rng);
+    return x_;
+  }
+
+ private:
+  const System& system_;
+  VectorXd x_;
+};
+}  // namespace detail
+
+inline std::unique_ptr<EpisodeSession> System::begin_episode(const VectorXd& x0) const {
+  return std::make_unique<detail::StatelessSession>(*this, x0);
+}
 
 }  // namespace drops::rollout
