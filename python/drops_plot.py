@@ -1,0 +1,328 @@
+#!/usr/bin/python3
+"""Figures of `drops report` and `drops plot` (run by the drops command line; see docs/reports.md).
+
+Every statistic is computed by the C++ side; this script only draws.
+
+  drops_plot.py report RETURNS_CSV OUTPUT_PNG
+      The paper's Fig. 3 form from returns.csv: one panel per prior, one line per variant,
+      median return with the 25-75 % band against interaction time.
+  drops_plot.py run RUN_DIR OUTPUT_DIR [--episodes 2,8] [--phi m1,m2]
+      returns.png, phi.png (the listed components) and trajectories-NNN.png of one run directory.
+
+Exit codes: 0 success, 1 error, 2 usage error, 3 matplotlib or numpy missing.
+Needs Debian's python3-matplotlib and python3-numpy (scripts/install-deps).
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+
+try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+except ImportError as exc:  # reported by drops as "needs Debian's python3-matplotlib"
+    print(f"drops_plot.py: {exc}", file=sys.stderr)
+    sys.exit(3)
+
+MODEL_ORDER = ["gp_mi", "gp_prior", "mi", "gp"]
+MODEL_NAMES = {
+    "gp_mi": "Black-DROPS with GP-MI",
+    "gp_prior": "Black-DROPS with priors",
+    "mi": "Black-DROPS with MI",
+    "gp": "Black-DROPS",
+}
+PRIOR_TITLES = {  # paper Table I / Fig. 3
+    "tunable-useful": "A  tunable & useful",
+    "tunable": "B  tunable",
+    "tunable-misleading": "C  tunable & misleading",
+    "partially-tunable": "D  partially tunable",
+}
+PRIOR_ORDER = list(PRIOR_TITLES) + ["actual"]
+COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#9467bd", "#ff7f0e", "#8c564b",
+          "#e377c2", "#17becf", "#bcbd22"]
+# Units of the pendubot's φ components (prefix of the name) and state columns.
+PHI_UNITS = {"m": "kg", "l": "m", "b": "N·m·s/rad"}
+STATE_LABELS = {
+    "theta1": (r"$\theta_1$", "rad"),
+    "theta2": (r"$\theta_2$", "rad"),
+    "dtheta1": (r"$\dot\theta_1$", "rad/s"),
+    "dtheta2": (r"$\dot\theta_2$", "rad/s"),
+    "u": (r"action $u$", "N·m"),
+    "reward": ("reward", None),
+}
+
+plt.rcParams.update({
+    "font.size": 11,
+    "axes.titlesize": 12,
+    "axes.labelsize": 11,
+    "legend.fontsize": 10,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "savefig.dpi": 130,
+})
+
+
+def number(text):
+    """A CSV/JSON number; '' and None read as NaN."""
+    if text is None or text == "":
+        return math.nan
+    return float(text)
+
+
+def model_of(variant):
+    return variant.split(" ", 1)[0]
+
+
+def variant_key(variant):
+    m = model_of(variant)
+    return (MODEL_ORDER.index(m) if m in MODEL_ORDER else len(MODEL_ORDER), variant)
+
+
+def variant_label(variant):
+    m, _, rest = variant.partition(" ")
+    name = MODEL_NAMES.get(m, m)
+    return f"{name}, {rest}" if rest else name
+
+
+def prior_title(prior):
+    return PRIOR_TITLES.get(prior, prior)
+
+
+def save(fig, path):
+    fig.savefig(path, bbox_inches="tight")
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------- drops report
+
+def plot_report(returns_csv, output_png):
+    with open(returns_csv, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        fig, ax = plt.subplots(figsize=(6, 3))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "no finished episode yet", ha="center", va="center")
+        save(fig, output_png)
+        return
+    priors = []
+    for r in rows:
+        if r["prior"] not in priors:
+            priors.append(r["prior"])
+    priors.sort(key=lambda p: (PRIOR_ORDER.index(p) if p in PRIOR_ORDER else len(PRIOR_ORDER), p))
+    variants = sorted({r["variant"] for r in rows}, key=variant_key)
+    color = {v: COLORS[i % len(COLORS)] for i, v in enumerate(variants)}
+
+    n = len(priors)
+    ncols = n if n <= 3 else (2 if n == 4 else 3)
+    nrows = math.ceil(n / ncols)
+    width = 5.2 * ncols if ncols > 1 else 7.0
+    fig, axes = plt.subplots(nrows, ncols, figsize=(width, 3.6 * nrows), sharey=True,
+                             squeeze=False)
+    partial = False
+    for i, prior in enumerate(priors):
+        ax = axes[i // ncols][i % ncols]
+        for v in variants:
+            pts = [r for r in rows
+                   if r["prior"] == prior and r["variant"] == v and int(r["runs"]) > 0]
+            if not pts:
+                continue
+            pts.sort(key=lambda r: int(r["episode"]))
+            t = np.array([number(r["interaction_time_s"]) for r in pts])
+            med = np.array([number(r["median"]) for r in pts])
+            q25 = np.array([number(r["q25"]) for r in pts])
+            q75 = np.array([number(r["q75"]) for r in pts])
+            runs = np.array([int(r["runs"]) for r in pts])
+            full = runs == runs.max()
+            partial = partial or not full.all()
+            c = color[v]
+            z = 2 * (len(variants) - variants.index(v))  # the first variant (GP-MI) on top
+            ax.fill_between(t, q25, q75, color=c, alpha=0.15, linewidth=0, zorder=z)
+            ax.plot(t, med, color=c, linewidth=2, label=variant_label(v), zorder=z + 1)
+            ax.plot(t[full], med[full], "o", color=c, markersize=4, zorder=z + 1)
+            ax.plot(t[~full], med[~full], "o", color=c, markersize=5, markerfacecolor="white",
+                    zorder=z + 1)
+        ax.set_title(prior_title(prior), loc="left")
+        ax.set_xlabel("interaction time (s)")
+        if i % ncols == 0:
+            ax.set_ylabel("return")
+        ax.set_xlim(left=0)
+    for j in range(n, nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    handles, labels = [], []
+    for row in axes:
+        for ax in row:
+            for h, l in zip(*ax.get_legend_handles_labels()):
+                if l not in labels:
+                    handles.append(h)
+                    labels.append(l)
+    order = sorted(range(len(labels)), key=lambda k: variants.index(
+        next(v for v in variants if variant_label(v) == labels[k])))
+    legend_cols = min(len(labels), 4 if fig.get_figwidth() >= 9 else 2)
+    legend_rows = math.ceil(len(labels) / legend_cols)
+    fig.legend([handles[k] for k in order], [labels[k] for k in order], loc="lower center",
+               ncol=legend_cols, frameon=False, bbox_to_anchor=(0.5, 0.0))
+    title = "Return on the real system: line = median over the runs, band = 25–75 %"
+    if partial:
+        title += "\nhollow markers: not every run has reached this episode yet"
+    fig.suptitle(title, fontsize=11)
+    legend_height_in = 0.3 * legend_rows + 0.1
+    fig.tight_layout(rect=(0, legend_height_in / fig.get_figheight(), 1, 1))
+    save(fig, output_png)
+
+
+# ---------------------------------------------------------------- drops plot
+
+def read_trajectory(path):
+    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
+    return np.atleast_1d(data)
+
+
+def plot_returns(summary, name, out):
+    eps = summary.get("episodes", [])
+    k = np.array([e["episode"] for e in eps])
+    real = np.array([number(e.get("real_return")) for e in eps])
+    pred = np.array([number(e.get("predicted_return")) for e in eps])
+    solved = np.array([bool(e.get("solved")) for e in eps])
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    ax.plot(k, real, "-o", color="#1f77b4", linewidth=2, markersize=5, label="real return")
+    ax.plot(k, pred, "--s", color="#ff7f0e", linewidth=1.5, markersize=4,
+            label="predicted return (model)")
+    if solved.any():
+        ax.plot(k[solved], real[solved], "*", color="#2ca02c", markersize=15, zorder=5,
+                label="solved")
+    ax.set_xlabel("episode")
+    ax.set_ylabel("return")
+    ax.set_xticks(k if len(k) <= 20 else np.unique(np.linspace(k.min(), k.max(), 11).round()))
+    times = np.array([number(e.get("interaction_time_s")) for e in eps])
+    linear = len(k) >= 1 and np.all(np.isfinite(times)) and times[0] > 0
+    if linear and np.allclose(times, k * times[0]):
+        per = times[0]
+        sec = ax.secondary_xaxis("top", functions=(lambda e: e * per, lambda t: t / per))
+        sec.set_xlabel("interaction time (s)")
+    ax.legend(loc="lower right")
+    status = summary.get("status", "?")
+    ax.set_title(f"{name}: {MODEL_NAMES.get(summary.get('model'), summary.get('model'))}, "
+                 f"prior {prior_title(summary.get('prior', '?')).replace('  ', ' ')}, "
+                 f"seed {summary.get('seed', '?')}\n"
+                 f"{status}, {len(eps)}/{summary.get('episodes_planned', '?')} episodes",
+                 fontsize=11, pad=10)
+    save(fig, os.path.join(out, "returns.png"))
+
+
+def phi_label(name):
+    unit = PHI_UNITS.get(name[:1]) if name[1:].isdigit() else None
+    return f"{name} ({unit})" if unit else name
+
+
+def plot_phi(summary, names, out):
+    all_names = summary.get("phi_names", [])
+    actual = summary.get("phi_actual", [])
+    eps = summary.get("episodes", [])
+    k = np.array([e["episode"] for e in eps])
+    n = len(names)
+    ncols = 2 if n in (2, 4) else min(n, 3)
+    nrows = math.ceil(n / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 2.8 * nrows), squeeze=False)
+    for j, name in enumerate(names):
+        ax = axes[j // ncols][j % ncols]
+        i = all_names.index(name)
+        vals = np.array([number(e["phi"][i]) if i < len(e.get("phi", [])) else math.nan
+                         for e in eps])
+        ax.plot(k, vals, "-o", color="#1f77b4", markersize=4, label="model's φ")
+        if i < len(actual) and actual[i] is not None:
+            ax.axhline(actual[i], color="black", linestyle="--", linewidth=1.2, label="actual")
+        ax.set_title(phi_label(name))
+        ax.set_xlabel("episode")
+        ax.margins(y=0.25)
+        if len(k) <= 20:
+            ax.set_xticks(k if len(k) <= 10 else k[::2])
+    for j in range(n, nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    h, l = axes[0][0].get_legend_handles_labels()
+    fig.legend(h, l, loc="lower center", ncol=2, frameon=False, bbox_to_anchor=(0.5, -0.01))
+    fig.suptitle("Prior parameters φ chosen by the model per episode", fontsize=12)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    save(fig, os.path.join(out, "phi.png"))
+
+
+def plot_trajectory(run_dir, summary, k, out):
+    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
+    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
+    pred_path = os.path.join(ep_dir, "predicted.csv")
+    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    columns = [c for c in real.dtype.names if c != "t"]
+    # States first, in the order angle, velocity; then action and reward.
+    states = [c for c in columns if c not in ("u", "reward")]
+    states.sort(key=lambda c: (c.startswith("d"), c))
+    columns = states + [c for c in ("u", "reward") if c in columns]
+    ncols = 2
+    nrows = math.ceil(len(columns) / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(10, 2.6 * nrows), sharex=True, squeeze=False)
+    for j, c in enumerate(columns):
+        ax = axes[j // ncols][j % ncols]
+        label, unit = STATE_LABELS.get(c, (c, None))
+        # Actions are held constant over a time step.
+        style = "steps-post" if c == "u" else "default"
+        ax.plot(real["t"], real[c], color="#1f77b4", linewidth=1.8, label="real", drawstyle=style)
+        if pred is not None and c in pred.dtype.names:
+            ax.plot(pred["t"], pred[c], color="#ff7f0e", linestyle="--", linewidth=1.8,
+                    label="predicted (model mean)", drawstyle=style)
+        ax.set_ylabel(f"{label} ({unit})" if unit else label)
+        if j // ncols == nrows - 1 or j + ncols >= len(columns):
+            ax.set_xlabel("time (s)")
+            ax.tick_params(labelbottom=True)
+    for j in range(len(columns), nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    h, l = axes[0][0].get_legend_handles_labels()
+    fig.legend(h, l, loc="lower center", ncol=2, frameon=False, bbox_to_anchor=(0.5, -0.01))
+    ep = next((e for e in summary.get("episodes", []) if e.get("episode") == k), {})
+    pr = ep.get("predicted_return")
+    name = os.path.basename(os.path.normpath(run_dir))
+    parts = [f"{name}: episode {k}", f"real return {number(ep.get('real_return')):.2f}"]
+    parts.append(f"predicted {pr:.2f}" if pr is not None else "random policy (no prediction)")
+    parts.append("solved" if ep.get("solved") else "not solved")
+    fig.suptitle(", ".join(parts), fontsize=12)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    save(fig, os.path.join(out, f"trajectories-{k:03d}.png"))
+
+
+def plot_run(run_dir, out, episodes, phi):
+    with open(os.path.join(run_dir, "summary.json")) as f:
+        summary = json.load(f)
+    name = os.path.basename(os.path.normpath(run_dir))
+    plot_returns(summary, name, out)
+    if phi:
+        plot_phi(summary, phi, out)
+    for k in episodes:
+        plot_trajectory(run_dir, summary, k, out)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+    rep = sub.add_parser("report")
+    rep.add_argument("returns_csv")
+    rep.add_argument("output_png")
+    run = sub.add_parser("run")
+    run.add_argument("run_dir")
+    run.add_argument("output_dir")
+    run.add_argument("--episodes", default="")
+    run.add_argument("--phi", default="")
+    args = parser.parse_args()
+    if args.command == "report":
+        plot_report(args.returns_csv, args.output_png)
+    else:
+        episodes = [int(k) for k in args.episodes.split(",") if k]
+        phi = [p for p in args.phi.split(",") if p]
+        plot_run(args.run_dir, args.output_dir, episodes, phi)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,521 @@
+// drops report / drops plot: quantiles, aggregation of fake run directories against statistics
+// worked out by hand below, and the CSV files written from them.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "drops/core/errors.hpp"
+#include "report.hpp"
+
+using namespace drops;
+using namespace drops::app;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A fresh directory under the system temp dir, removed at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() /
+            (std::string("drops-test-report-") + info->name() + "-" + std::to_string(::getpid()));
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+void write(const fs::path& p, const std::string& text) {
+  fs::create_directories(p.parent_path());
+  std::ofstream(p) << text;
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A run directory with only what the report reads: config.yaml and summary.json. Episode k has
+// interaction time 2.5 k s, returns[k-1] and solved[k-1]; φ = (k, 10) for every run.
+void fake_run(const fs::path& runs, const std::string& name, const std::string& model,
+              const std::string& prior, int seed, const std::string& status,
+              const std::vector<double>& returns, const std::vector<bool>& solved,
+              const std::string& extra_config = "") {
+  const fs::path dir = runs / name;
+  write(dir / "config.yaml", "task: pendubot\nseed: " + std::to_string(seed) +
+                                 "\nmodel:\n  type: " + model + "\nprior:\n  preset: " + prior +
+                                 "\n  tunable: [m1]\n" + extra_config);
+  nlohmann::json s = {{"task", "pendubot"},
+                      {"model", model},
+                      {"prior", prior},
+                      {"seed", seed},
+                      {"episodes_planned", 3},
+                      {"phi_names", {"m1", "b1"}},
+                      {"phi_actual", {0.5, 0.1}},
+                      {"status", status},
+                      {"episodes", nlohmann::json::array()}};
+  bool any = false;
+  for (std::size_t i = 0; i < returns.size(); ++i) {
+    const int k = static_cast<int>(i) + 1;
+    s["episodes"].push_back(
+        {{"episode", k},
+         {"interaction_time_s", 2.5 * k},
+         {"real_return", returns[i]},
+         {"predicted_return", i == 0 ? nlohmann::json(nullptr) : nlohmann::json(returns[i] + 1.0)},
+         {"solved", static_cast<bool>(solved[i])},
+         {"random_policy", i == 0},
+         {"phi", {static_cast<double>(k), 10.0}}});
+    any = any || solved[i];
+  }
+  s["solved"] = any;
+  s["episodes_done"] = returns.size();
+  write(dir / "summary.json", s.dump(2));
+}
+
+// The campaign of the aggregation tests (first solved episodes in brackets):
+//   gp_mi / tunable-useful: returns {1,10,20} [2], {2,12,18} [3], {3,14} interrupted [never],
+//                           {4} failed [never]; plus one directory without summary.json
+//   gp / tunable-useful:    {0,5,8} [2, not at last], {1,2,9} [3], {0.5,1.5,2.5} [never]
+//   gp_mi / tunable:        {1,2,3} [2], {0,0,0} [never], {0,0,0} [never]
+void fake_campaign(const fs::path& dir) {
+  const fs::path runs = dir / "runs";
+  fake_run(runs, "gp_mi-tunable-useful-seed1", "gp_mi", "tunable-useful", 1, "complete",
+           {1, 10, 20}, {false, true, true});
+  fake_run(runs, "gp_mi-tunable-useful-seed2", "gp_mi", "tunable-useful", 2, "complete",
+           {2, 12, 18}, {false, false, true});
+  fake_run(runs, "gp_mi-tunable-useful-seed3", "gp_mi", "tunable-useful", 3, "interrupted", {3, 14},
+           {false, false});
+  fake_run(runs, "gp_mi-tunable-useful-seed4", "gp_mi", "tunable-useful", 4, "failed", {4},
+           {false});
+  write(runs / "gp_mi-tunable-useful-seed5" / "config.yaml",
+        "seed: 5\nmodel:\n  type: gp_mi\nprior:\n  preset: tunable-useful\n");
+  fake_run(runs, "gp-tunable-useful-seed1", "gp", "tunable-useful", 1, "complete", {0, 5, 8},
+           {false, true, false});
+  fake_run(runs, "gp-tunable-useful-seed2", "gp", "tunable-useful", 2, "complete", {1, 2, 9},
+           {false, false, true});
+  fake_run(runs, "gp-tunable-useful-seed3", "gp", "tunable-useful", 3, "running", {0.5, 1.5, 2.5},
+           {false, false, false});
+  fake_run(runs, "gp_mi-tunable-seed1", "gp_mi", "tunable", 1, "complete", {1, 2, 3},
+           {false, true, true});
+  fake_run(runs, "gp_mi-tunable-seed2", "gp_mi", "tunable", 2, "complete", {0, 0, 0},
+           {false, false, false});
+  fake_run(runs, "gp_mi-tunable-seed3", "gp_mi", "tunable", 3, "complete", {0, 0, 0},
+           {false, false, false});
+}
+
+const GroupReport& group(const CampaignReport& r, const std::string& variant,
+                         const std::string& prior) {
+  for (const auto& g : r.groups)
+    if (g.variant == variant && g.prior == prior) return g;
+  throw std::runtime_error("no group " + variant + "/" + prior);
+}
+
+// CSV rows keyed by their first `key_columns` fields joined with ','; naive split (the fixtures
+// hold no quoted fields).
+std::map<std::string, std::map<std::string, std::string>> read_csv(const fs::path& p,
+                                                                   int key_columns) {
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  std::istringstream in(read(p));
+  std::string line;
+  std::vector<std::string> header;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> f;
+    std::stringstream ss(l);
+    std::string x;
+    while (std::getline(ss, x, ',')) f.push_back(x);
+    if (!l.empty() && l.back() == ',') f.emplace_back();
+    return f;
+  };
+  std::getline(in, line);
+  header = split(line);
+  while (std::getline(in, line)) {
+    const auto f = split(line);
+    EXPECT_EQ(f.size(), header.size()) << line;
+    std::string key;
+    for (int i = 0; i < key_columns; ++i) key += (i ? "," : "") + f[i];
+    for (std::size_t i = 0; i < f.size() && i < header.size(); ++i) rows[key][header[i]] = f[i];
+  }
+  return rows;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- quantile
+
+TEST(Quantile, FourValuesInterpolateBetweenOrderStatistics) {
+  // h = 3p: p=0.25 -> 1 + 0.75*(2-1); p=0.5 -> 2 + 0.5*(3-2); p=0.75 -> 3 + 0.25*(4-3).
+  EXPECT_DOUBLE_EQ(quantile({1, 2, 3, 4}, 0.5), 2.5);
+  EXPECT_DOUBLE_EQ(quantile({1, 2, 3, 4}, 0.25), 1.75);
+  EXPECT_DOUBLE_EQ(quantile({1, 2, 3, 4}, 0.75), 3.25);
+}
+
+TEST(Quantile, UnsortedInputGivesTheSameAsSorted) {
+  EXPECT_DOUBLE_EQ(quantile({4, 1, 3, 2}, 0.25), 1.75);
+  EXPECT_DOUBLE_EQ(quantile({10, -5, 0}, 0.5), 0.0);
+}
+
+TEST(Quantile, OneValueIsEveryQuantile) {
+  for (double p : {0.0, 0.25, 0.5, 1.0}) EXPECT_DOUBLE_EQ(quantile({7.5}, p), 7.5);
+}
+
+TEST(Quantile, TwoValuesInterpolateLinearly) {
+  EXPECT_DOUBLE_EQ(quantile({20, 10}, 0.25), 12.5);
+  EXPECT_DOUBLE_EQ(quantile({20, 10}, 0.5), 15.0);
+  EXPECT_DOUBLE_EQ(quantile({20, 10}, 0.75), 17.5);
+}
+
+TEST(Quantile, ZeroAndOneAreMinimumAndMaximum) {
+  EXPECT_DOUBLE_EQ(quantile({3, -1, 8, 2}, 0.0), -1.0);
+  EXPECT_DOUBLE_EQ(quantile({3, -1, 8, 2}, 1.0), 8.0);
+}
+
+TEST(Quantile, InfinityCountsAsLargerThanEveryValue) {
+  EXPECT_DOUBLE_EQ(quantile({2, 3, kInf}, 0.5), 3.0);
+  EXPECT_EQ(quantile({2, kInf, kInf}, 0.5), kInf);
+  EXPECT_EQ(quantile({2, 3, kInf, kInf}, 0.5), kInf);  // halfway to +inf
+  EXPECT_DOUBLE_EQ(quantile({2, kInf, kInf}, 0.0), 2.0);
+}
+
+TEST(Quantile, RejectsEmptyInputNanAndPOutsideZeroOne) {
+  EXPECT_THROW(quantile({}, 0.5), InvalidArgument);
+  EXPECT_THROW(quantile({1, 2}, -0.1), InvalidArgument);
+  EXPECT_THROW(quantile({1, 2}, 1.5), InvalidArgument);
+  EXPECT_THROW(quantile({1, 2}, std::nan("")), InvalidArgument);
+  EXPECT_THROW(quantile({1, std::nan("")}, 0.5), InvalidArgument);
+}
+
+// ---------------------------------------------------------------- aggregation
+
+TEST(Report, ReadsRunStatusEpisodesAndFirstSolve) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const RunResult r = read_run(tmp.path() / "runs" / "gp-tunable-useful-seed2");
+  EXPECT_EQ(r.status, "complete");
+  EXPECT_EQ(r.model_type, "gp");
+  EXPECT_EQ(r.prior, "tunable-useful");
+  EXPECT_EQ(r.variant, "gp");
+  EXPECT_EQ(r.seed, 2);
+  ASSERT_EQ(r.episodes.size(), 3u);
+  EXPECT_TRUE(std::isnan(r.episodes[0].predicted_return));  // null in summary.json
+  EXPECT_DOUBLE_EQ(r.episodes[1].predicted_return, 3.0);
+  ASSERT_TRUE(r.first_solved_episode.has_value());
+  EXPECT_EQ(*r.first_solved_episode, 3);
+  EXPECT_DOUBLE_EQ(r.first_solved_time_s, 7.5);
+  EXPECT_EQ(r.phi_tunable, (std::vector<std::string>{"m1"}));
+
+  const RunResult ns = read_run(tmp.path() / "runs" / "gp_mi-tunable-useful-seed5");
+  EXPECT_EQ(ns.status, "not started");
+  EXPECT_FALSE(ns.started());
+  EXPECT_EQ(ns.model_type, "gp_mi");
+}
+
+TEST(Report, CountsRunsByStatusAndSuccessRates) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  EXPECT_EQ(rep.runs.size(), 11u);
+  ASSERT_EQ(rep.groups.size(), 3u);
+
+  const GroupReport& a = group(rep, "gp_mi", "tunable-useful");
+  EXPECT_EQ(a.runs, 4);  // the directory without summary.json is not a started run
+  EXPECT_EQ(a.not_started, 1);
+  EXPECT_EQ(a.complete, 2);
+  EXPECT_EQ(a.interrupted, 1);
+  EXPECT_EQ(a.failed, 1);
+  EXPECT_EQ(a.solved_runs, 2);
+  EXPECT_DOUBLE_EQ(a.success_rate, 0.5);      // 2 of 4 solved at least once
+  EXPECT_DOUBLE_EQ(a.solved_last_rate, 0.5);  // seeds 1 and 2 solved at episode 3
+
+  const GroupReport& b = group(rep, "gp", "tunable-useful");
+  EXPECT_EQ(b.runs, 3);
+  EXPECT_EQ(b.running, 1);
+  EXPECT_DOUBLE_EQ(b.success_rate, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(b.solved_last_rate, 1.0 / 3.0);  // seed 1 solved at 2 but not at 3
+}
+
+TEST(Report, MedianFirstSolveCountsNeverSolvedAsInfinity) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  // {2, 3, never} -> median 3 (episode), 3 * 2.5 s.
+  const GroupReport& b = group(rep, "gp", "tunable-useful");
+  EXPECT_DOUBLE_EQ(b.median_first_solve_episode, 3.0);
+  EXPECT_DOUBLE_EQ(b.median_first_solve_time_s, 7.5);
+  // {2, never, never} -> not solved.
+  const GroupReport& c = group(rep, "gp_mi", "tunable");
+  EXPECT_EQ(c.median_first_solve_episode, kInf);
+  EXPECT_EQ(c.median_first_solve_time_s, kInf);
+  // {2, 3, never, never}: the median lies halfway between 3 and +inf -> not solved.
+  EXPECT_EQ(group(rep, "gp_mi", "tunable-useful").median_first_solve_episode, kInf);
+}
+
+TEST(Report, PerEpisodeQuartilesUseTheRunsThatReachedTheEpisode) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const GroupReport& a = group(rep, "gp_mi", "tunable-useful");
+  ASSERT_EQ(a.episodes.size(), 3u);
+  // Episode 1: {1, 2, 3, 4} (the failed run counts).
+  EXPECT_EQ(a.episodes[0].runs, 4);
+  EXPECT_DOUBLE_EQ(a.episodes[0].interaction_time_s, 2.5);
+  EXPECT_DOUBLE_EQ(a.episodes[0].median, 2.5);
+  EXPECT_DOUBLE_EQ(a.episodes[0].q25, 1.75);
+  EXPECT_DOUBLE_EQ(a.episodes[0].q75, 3.25);
+  // Episode 2: {10, 12, 14}: h = 0.5 -> 11, h = 1 -> 12, h = 1.5 -> 13.
+  EXPECT_EQ(a.episodes[1].runs, 3);
+  EXPECT_DOUBLE_EQ(a.episodes[1].median, 12.0);
+  EXPECT_DOUBLE_EQ(a.episodes[1].q25, 11.0);
+  EXPECT_DOUBLE_EQ(a.episodes[1].q75, 13.0);
+  // Episode 3: {18, 20}.
+  EXPECT_EQ(a.episodes[2].runs, 2);
+  EXPECT_DOUBLE_EQ(a.episodes[2].interaction_time_s, 7.5);
+  EXPECT_DOUBLE_EQ(a.episodes[2].median, 19.0);
+  EXPECT_DOUBLE_EQ(a.episodes[2].q25, 18.5);
+  EXPECT_DOUBLE_EQ(a.episodes[2].q75, 19.5);
+  // Final returns {20, 18, 14, 4} -> median 16.
+  EXPECT_DOUBLE_EQ(a.median_final_return, 16.0);
+  // φ = (k, 10) in every run.
+  ASSERT_EQ(a.episodes[1].phi_median.size(), 2u);
+  EXPECT_DOUBLE_EQ(a.episodes[1].phi_median[0], 2.0);
+  EXPECT_DOUBLE_EQ(a.episodes[1].phi_median[1], 10.0);
+
+  const GroupReport& b = group(rep, "gp", "tunable-useful");
+  // Episode 1: {0, 1, 0.5} -> sorted {0, 0.5, 1}.
+  EXPECT_DOUBLE_EQ(b.episodes[0].median, 0.5);
+  EXPECT_DOUBLE_EQ(b.episodes[0].q25, 0.25);
+  EXPECT_DOUBLE_EQ(b.episodes[0].q75, 0.75);
+}
+
+TEST(Report, GroupsFollowTableIOrderThenVariantOrder) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  ASSERT_EQ(rep.groups.size(), 3u);
+  EXPECT_EQ(rep.groups[0].variant + "/" + rep.groups[0].prior, "gp_mi/tunable-useful");
+  EXPECT_EQ(rep.groups[1].variant + "/" + rep.groups[1].prior, "gp/tunable-useful");
+  EXPECT_EQ(rep.groups[2].variant + "/" + rep.groups[2].prior, "gp_mi/tunable");
+}
+
+TEST(Report, ExtraGridAxesSplitTheVariant) {
+  TempDir tmp;
+  write(tmp.path() / "campaign.yaml",
+        "grid:\n  model: {type: [gp_mi]}\n  prior.preset: [tunable]\n  seed: {first: 1, count: 2}\n"
+        "  rollouts:\n    count: [1, 3]\n  pendubot.dt: [0.05]\n  episodes: {first: 2, count: 1}\n"
+        "settings:\n  task: pendubot\n");
+  const fs::path runs = tmp.path() / "runs";
+  fake_run(runs, "a1", "gp_mi", "tunable", 1, "complete", {1, 2}, {false, true},
+           "rollouts:\n  count: 1\n");
+  fake_run(runs, "a2", "gp_mi", "tunable", 2, "complete", {3, 4}, {false, false},
+           "rollouts:\n  count: 1\n");
+  fake_run(runs, "b1", "gp_mi", "tunable", 1, "complete", {5, 6}, {true, true},
+           "rollouts:\n  count: 3\n");
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  // dt and episodes have one value each; seed, model.type and prior.preset are the usual axes.
+  EXPECT_EQ(rep.extra_axes, (std::vector<std::string>{"rollouts.count"}));
+  ASSERT_EQ(rep.groups.size(), 2u);
+  const GroupReport& one = group(rep, "gp_mi rollouts.count=1", "tunable");
+  EXPECT_EQ(one.runs, 2);
+  EXPECT_DOUBLE_EQ(one.success_rate, 0.5);
+  EXPECT_DOUBLE_EQ(one.episodes[1].median, 3.0);  // {2, 4}
+  const GroupReport& three = group(rep, "gp_mi rollouts.count=3", "tunable");
+  EXPECT_DOUBLE_EQ(three.median_first_solve_episode, 1.0);
+}
+
+TEST(Report, MissingOrEmptyCampaignIsAConfigError) {
+  TempDir tmp;
+  EXPECT_THROW(aggregate_campaign(tmp.path() / "nope"), ConfigError);
+  fs::create_directories(tmp.path() / "runs");
+  EXPECT_THROW(aggregate_campaign(tmp.path()), ConfigError);
+}
+
+TEST(Report, UnreadableSummaryIsListedButNotCounted) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  write(tmp.path() / "runs" / "gp-tunable-useful-seed9" / "summary.json", "{\"status\": ");
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  EXPECT_EQ(rep.runs.size(), 12u);
+  const auto it = std::find_if(rep.runs.begin(), rep.runs.end(), [](const RunResult& r) {
+    return r.name == "gp-tunable-useful-seed9";
+  });
+  ASSERT_NE(it, rep.runs.end());
+  EXPECT_EQ(it->status, "unreadable");
+  EXPECT_FALSE(it->error.empty());
+  EXPECT_EQ(group(rep, "gp", "tunable-useful").runs, 3);
+}
+
+// ---------------------------------------------------------------- files
+
+TEST(Report, CsvFilesHoldTheAggregatedNumbers) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  write_summary_csv(rep, tmp.path() / "summary.csv");
+  write_returns_csv(rep, tmp.path() / "returns.csv");
+  write_phi_csv(rep, tmp.path() / "phi.csv");
+
+  const std::string returns = read(tmp.path() / "returns.csv");
+  EXPECT_EQ(returns.substr(0, returns.find('\n')),
+            "variant,prior,episode,interaction_time_s,runs,median,q25,q75");
+  auto ret = read_csv(tmp.path() / "returns.csv", 3);
+  ASSERT_EQ(ret.size(), 9u);  // 3 groups x 3 episodes
+  const auto& r1 = ret.at("gp_mi,tunable-useful,1");
+  EXPECT_DOUBLE_EQ(std::stod(r1.at("interaction_time_s")), 2.5);
+  EXPECT_EQ(r1.at("runs"), "4");
+  EXPECT_DOUBLE_EQ(std::stod(r1.at("median")), 2.5);
+  EXPECT_DOUBLE_EQ(std::stod(r1.at("q25")), 1.75);
+  EXPECT_DOUBLE_EQ(std::stod(r1.at("q75")), 3.25);
+  EXPECT_EQ(ret.at("gp_mi,tunable-useful,3").at("runs"), "2");
+  EXPECT_DOUBLE_EQ(std::stod(ret.at("gp_mi,tunable-useful,3").at("q25")), 18.5);
+
+  auto sum = read_csv(tmp.path() / "summary.csv", 2);
+  ASSERT_EQ(sum.size(), 3u);
+  const auto& b = sum.at("gp,tunable-useful");
+  EXPECT_EQ(b.at("runs"), "3");
+  EXPECT_EQ(b.at("running"), "1");
+  EXPECT_EQ(b.at("solved_runs"), "2");
+  EXPECT_NEAR(std::stod(b.at("success_rate")), 2.0 / 3.0, 1e-9);
+  EXPECT_NEAR(std::stod(b.at("solved_last_rate")), 1.0 / 3.0, 1e-9);
+  EXPECT_DOUBLE_EQ(std::stod(b.at("median_first_solve_episode")), 3.0);
+  EXPECT_DOUBLE_EQ(std::stod(b.at("median_first_solve_time_s")), 7.5);
+  const auto& a = sum.at("gp_mi,tunable-useful");
+  EXPECT_EQ(a.at("not_started"), "1");
+  EXPECT_EQ(a.at("failed"), "1");
+  EXPECT_EQ(a.at("median_first_solve_episode"), "inf");
+  EXPECT_DOUBLE_EQ(std::stod(a.at("median_final_return")), 16.0);
+
+  auto phi = read_csv(tmp.path() / "phi.csv", 4);
+  EXPECT_DOUBLE_EQ(std::stod(phi.at("gp_mi,tunable,3,m1").at("median")), 3.0);
+  EXPECT_DOUBLE_EQ(std::stod(phi.at("gp_mi,tunable,3,m1").at("actual")), 0.5);
+}
+
+TEST(Report, MarkdownShowsTwoDecimalsAndNotSolved) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  write_report_markdown(rep, tmp.path() / "report.md");
+  const std::string md = read(tmp.path() / "report.md");
+  EXPECT_NE(md.find("| gp | A tunable-useful | 3 | 2 | 0.67 (2/3) | 0.33 (1/3) | 3.00 | 7.50 |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| gp_mi | B tunable | 3 | 3 | 0.33 (1/3) | 0.33 (1/3) | not solved | not "
+                    "solved |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| 1 | 2.50 | 2.50 [1.75, 3.25] |"), std::string::npos) << md;
+  EXPECT_NE(md.find("19.00 [18.50, 19.50] (2 runs)"), std::string::npos) << md;
+  EXPECT_NE(md.find("| gp_mi-tunable-useful-seed5 | gp_mi | tunable-useful | 5 | not started |"),
+            std::string::npos)
+      << md;
+}
+
+// ---------------------------------------------------------------- drops plot helpers
+
+TEST(Plot, DefaultEpisodesAreFirstSolvedAndLast) {
+  RunResult r;
+  for (int k = 1; k <= 5; ++k) r.episodes.push_back({.episode = k});
+  EXPECT_EQ(default_plot_episodes(r), (std::vector<int>{5}));  // never solved
+  r.first_solved_episode = 2;
+  EXPECT_EQ(default_plot_episodes(r), (std::vector<int>{2, 5}));
+  r.first_solved_episode = 5;
+  EXPECT_EQ(default_plot_episodes(r), (std::vector<int>{5}));
+  EXPECT_TRUE(default_plot_episodes(RunResult{}).empty());
+}
+
+TEST(Plot, EpisodeListIsParsedAndChecked) {
+  EXPECT_EQ(parse_episode_list("1,5, 10", 10), (std::vector<int>{1, 5, 10}));
+  EXPECT_EQ(parse_episode_list("3,3,1", 10), (std::vector<int>{3, 1}));
+  EXPECT_THROW(parse_episode_list("0", 10), ConfigError);
+  EXPECT_THROW(parse_episode_list("11", 10), ConfigError);
+  EXPECT_THROW(parse_episode_list("1,x", 10), ConfigError);
+  EXPECT_THROW(parse_episode_list("2.5", 10), ConfigError);
+  EXPECT_THROW(parse_episode_list("", 10), ConfigError);
+  try {
+    parse_episode_list("12", 8);
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("allowed 1 to 8"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Plot, PhiPanelsAreChangingOrTunableComponents) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  // φ = (k, 10): m1 changes (and is tunable), b1 is constant and not tunable.
+  const RunResult r = read_run(tmp.path() / "runs" / "gp_mi-tunable-seed1");
+  EXPECT_EQ(plotted_phi_names(r), (std::vector<std::string>{"m1"}));
+  RunResult constant = r;
+  for (auto& e : constant.episodes) e.phi = {0.65, 0.1};
+  EXPECT_EQ(plotted_phi_names(constant), (std::vector<std::string>{"m1"}));  // tunable
+  constant.phi_tunable.clear();
+  EXPECT_TRUE(plotted_phi_names(constant).empty());
+  const RunResult gp = read_run(tmp.path() / "runs" / "gp-tunable-useful-seed1");
+  EXPECT_TRUE(plotted_phi_names(gp).empty());  // the gp variant uses no prior
+}
+
+// ---------------------------------------------------------------- figures (need matplotlib)
+
+namespace {
+
+bool matplotlib_available() {
+  return std::system("/usr/bin/python3 -c 'import matplotlib, numpy' >/dev/null 2>&1") == 0;
+}
+
+bool is_png(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  char sig[8] = {};
+  in.read(sig, 8);
+  return in && std::string(sig + 1, 3) == "PNG" && fs::file_size(p) > 1000;
+}
+
+void fake_trajectory(const fs::path& file) {
+  std::string t = "t,dtheta1,dtheta2,theta1,theta2,u,reward\n";
+  for (int i = 0; i <= 10; ++i)
+    t += std::to_string(0.05 * i) + "," + std::to_string(0.1 * i) + ",0," +
+         std::to_string(3.14 - 0.1 * i) + ",3.14," + (i < 10 ? "1.5" : "") + "," +
+         (i > 0 ? "0.5" : "") + "\n";
+  write(file, t);
+}
+
+}  // namespace
+
+TEST(Figures, ReportAndRunFiguresAreWrittenAsPng) {
+  if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const auto files = write_report(rep, tmp.path() / "report", true);
+  ASSERT_EQ(files.size(), 5u);
+  EXPECT_TRUE(is_png(tmp.path() / "report" / "returns.png"));
+
+  const fs::path run = tmp.path() / "runs" / "gp_mi-tunable-seed1";  // solved first at 2
+  fake_trajectory(run / "episodes" / "001" / "real.csv");  // no predicted.csv: random episode
+  for (const char* k : {"002", "003"}) {
+    fake_trajectory(run / "episodes" / k / "real.csv");
+    fake_trajectory(run / "episodes" / k / "predicted.csv");
+  }
+  const auto plots = plot_run(run, "", tmp.path() / "plots");
+  EXPECT_EQ(plots.size(), 4u);  // returns, phi, trajectories of episodes 2 and 3
+  for (const char* f : {"returns.png", "phi.png", "trajectories-002.png", "trajectories-003.png"})
+    EXPECT_TRUE(is_png(tmp.path() / "plots" / f)) << f;
+  plot_run(run, "1", tmp.path() / "plots");
+  EXPECT_TRUE(is_png(tmp.path() / "plots" / "trajectories-001.png"));
+  EXPECT_THROW(plot_run(run, "4", tmp.path() / "plots"), ConfigError);
+}
