@@ -80,18 +80,15 @@ Gp::Gp(int input_dim)
   if (input_dim < 1) {
     throw InvalidArgument("Gp: input dimension: expected >= 1, got " + std::to_string(input_dim));
   }
+  h_ = VectorXd::Zero(input_dim + 2);  // l = 1, sigma_f = 1
+  h_[input_dim] = 0.5 * std::log(kernel_.signal_variance);
+  h_[input_dim + 1] = log_sigma_n_;
 }
 
 int Gp::input_dim() const { return input_dim_; }
 int Gp::size() const { return static_cast<int>(X_.rows()); }
 
-Eigen::VectorXd Gp::h_params() const {
-  VectorXd h(input_dim_ + 2);
-  h.head(input_dim_) = kernel_.length_scales.array().log().matrix();
-  h[input_dim_] = 0.5 * std::log(kernel_.signal_variance);
-  h[input_dim_ + 1] = log_sigma_n_;
-  return h;
-}
+Eigen::VectorXd Gp::h_params() const { return h_; }
 
 void Gp::set_h_params(const Eigen::VectorXd& h) {
   check_size("Gp::set_h_params: h (D + 2)", input_dim_ + 2, h.size());
@@ -120,9 +117,11 @@ void Gp::apply_h(const Eigen::VectorXd& h) {
   if (X_.rows() == 0) {
     kernel_ = std::move(k);
     log_sigma_n_ = log_sn;
-    return;
+  } else {
+    factorise(k, log_sn, X_, y_);  // throws with the GP unchanged
   }
-  factorise(k, log_sn, X_, y_);
+  // h itself, not log(exp(h)): set_h_params(h_params()) must restore the GP bit for bit (resume).
+  h_ = h;
 }
 
 const SquaredExpArd& Gp::kernel() const { return kernel_; }

@@ -50,7 +50,8 @@ class Gp {
   /// Number of training points N.
   int size() const;
 
-  /// Hyper-parameters h (dim D + 2, log space, see class comment).
+  /// Hyper-parameters h (dim D + 2, log space, see class comment): exactly the vector last set
+  /// (set_h_params or Rprop), so set_h_params(h_params()) restores the GP bit for bit.
   Eigen::VectorXd h_params() const;
   /// Sets h (dim D + 2, finite); if data is present, recomputes the factorisation.
   /// Throws InvalidArgument on wrong size, non-finite values or |h_i| so large that exp(2 h_i)
@@ -117,6 +118,7 @@ class Gp {
   int input_dim_;
   SquaredExpArd kernel_;
   double log_sigma_n_;
+  Eigen::VectorXd h_;          // D + 2, the log-space h that kernel_ and log_sigma_n_ were made from
   Eigen::MatrixXd X_;          // N x D training inputs
   Eigen::RowVectorXd X_mean_;  // D, column means of X_ (centring keeps the distance expansion accurate)
   // N x (D + 2) augmented scaled inputs [xs, -|xs|^2 / 2, 1] with xs = (x - X_mean_) / l, so that
