@@ -33,6 +33,7 @@
 #include <thread>
 
 #include "drops/core/errors.hpp"
+#include "run_directory.hpp"
 
 namespace drops::app {
 namespace fs = std::filesystem;
@@ -46,32 +47,6 @@ const std::vector<std::string> kTopKeys = {"name", "output", "jobs", "threads", 
 const std::vector<std::string> kCampaignOwnedKeys = {"output", "name", "threads"};
 
 // ---- small helpers ----
-
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j)
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
-}
-
-/// " (did you mean 'x'?)" for the closest candidate within edit distance 4, else "".
-std::string did_you_mean(const std::string& key, const std::vector<std::string>& candidates) {
-  std::string best;
-  std::size_t best_d = 5;
-  for (const auto& c : candidates) {
-    const std::size_t d = edit_distance(key, c);
-    if (d < best_d) {
-      best_d = d;
-      best = c;
-    }
-  }
-  return best.empty() ? "" : " (did you mean '" + best + "'?)";
-}
 
 std::vector<std::string> schema_keys() {
   std::vector<std::string> keys;
@@ -141,24 +116,6 @@ std::string read_text(const fs::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-void write_atomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw Error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
-}
-
-std::string now_iso() {
-  const std::time_t t = std::time(nullptr);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-  return buf;
 }
 
 std::string host_name() {
@@ -256,7 +213,7 @@ void add_axis(const std::string& key, const YAML::Node& n, std::vector<GridAxis>
   const std::string where = "grid." + key;
   if (!find_spec(key)) {
     fail(where, node_text(n),
-         "not a drops config key" + did_you_mean(key, schema_keys()) +
+         "not a drops config key" + io::did_you_mean(key, schema_keys()) +
              "; run 'drops config --markdown' for every key");
   }
   if (contains(kCampaignOwnedKeys, key)) {
@@ -424,7 +381,7 @@ CampaignSpec parse_campaign(const std::string& yaml_text, const std::string& def
         throw ConfigError(std::string("settings: ") + ex.what());
       }
     } else {
-      std::string what = "unknown key" + did_you_mean(key, kTopKeys);
+      std::string what = "unknown key" + io::did_you_mean(key, kTopKeys);
       if (find_spec(key) || is_schema_prefix(key))
         what +=
             "; drops config keys go under 'settings:' (shared by every run) or 'grid:' (varied)";
@@ -884,12 +841,12 @@ void print_dry_run(const Campaign& c, const std::vector<Plan>& plans) {
 
 /// campaign.yaml and configs/<run>.yaml (rewritten only when they change).
 void write_campaign_directory(const Campaign& c) {
-  write_atomically(c.dir / "campaign.yaml", c.file_text);
+  write_file_atomically(c.dir / "campaign.yaml", c.file_text);
   for (const auto& r : c.runs) {
     const fs::path p = c.dir / "configs" / (r.name + ".yaml");
     const std::string text = io::to_yaml(r.settings);
     std::error_code ec;
-    if (!fs::exists(p, ec) || read_text(p) != text) write_atomically(p, text);
+    if (!fs::exists(p, ec) || read_text(p) != text) write_file_atomically(p, text);
   }
 }
 

@@ -22,6 +22,7 @@
 
 #include "command.hpp"
 #include "drops/core/errors.hpp"
+#include "run_directory.hpp"
 
 extern char** environ;
 
@@ -161,20 +162,6 @@ std::string csv_field(const std::string& s) {
   std::string q = "\"";
   for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
   return q + "\"";
-}
-
-void write_file(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    if (!out) throw Error("cannot write " + tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw Error("cannot write " + tmp.string());
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error("cannot write " + path.string() + ": " + ec.message());
 }
 
 // Markdown numbers: 2 decimals; +∞ (a median first solve) reads "not solved".
@@ -493,7 +480,7 @@ void write_summary_csv(const CampaignReport& report, const fs::path& path) {
                      g.not_started, g.solved_runs, num(g.success_rate), num(g.solved_last_rate),
                      num(g.median_first_solve_episode), num(g.median_first_solve_time_s),
                      num(g.median_final_return));
-  write_file(path, t);
+  write_file_atomically(path, t);
 }
 
 void write_returns_csv(const CampaignReport& report, const fs::path& path) {
@@ -503,7 +490,7 @@ void write_returns_csv(const CampaignReport& report, const fs::path& path) {
       t += fmt::format("{},{},{},{},{},{},{},{}\n", csv_field(g.variant), csv_field(g.prior),
                        e.episode, num(e.interaction_time_s), e.runs, num(e.median), num(e.q25),
                        num(e.q75));
-  write_file(path, t);
+  write_file_atomically(path, t);
 }
 
 void write_phi_csv(const CampaignReport& report, const fs::path& path) {
@@ -514,7 +501,7 @@ void write_phi_csv(const CampaignReport& report, const fs::path& path) {
         t += fmt::format("{},{},{},{},{},{}\n", csv_field(g.variant), csv_field(g.prior), e.episode,
                          csv_field(g.phi_names[i]), num(e.phi_median[i]),
                          num(i < g.phi_actual.size() ? g.phi_actual[i] : kNaN));
-  write_file(path, t);
+  write_file_atomically(path, t);
 }
 
 void write_report_markdown(const CampaignReport& report, const fs::path& path) {
@@ -661,7 +648,7 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
                                : (r.started() ? "never" : "–"),
         r.episodes.empty() ? "–" : md(r.episodes.back().real_return));
   }
-  write_file(path, t);
+  write_file_atomically(path, t);
 }
 
 // ---------- drops plot helpers ----------

@@ -18,18 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-void write_atomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    if (!out) throw Error("cannot write " + tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw Error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
-}
-
 std::string phi_text(const VectorXd& phi) {
   std::string s;
   for (Eigen::Index i = 0; i < phi.size(); ++i) s += fmt::format("{}{:.6g}", i ? " " : "", phi[i]);
@@ -48,14 +36,7 @@ void write_trajectory(const fs::path& path, const rollout::Trajectory& tr, doubl
     }
     text += t > 0 ? fmt::format(",{:.10g}\n", tr.rewards[t - 1]) : ",\n";
   }
-  write_atomically(path, text);
-}
-
-std::string now_iso() {
-  const std::time_t t = std::time(nullptr);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-  return buf;
+  write_file_atomically(path, text);
 }
 
 std::vector<double> to_std(const VectorXd& v) { return {v.data(), v.data() + v.size()}; }
@@ -74,6 +55,27 @@ VectorXd to_eigen(const nlohmann::json& j, const char* what) {
 constexpr int kCheckpointFormat = 1;
 
 }  // namespace
+
+void write_file_atomically(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) throw Error("cannot write " + tmp.string());
+    out << text;
+    out.flush();
+    if (!out) throw Error("cannot write " + tmp.string());
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw Error("cannot write " + path.string() + ": " + ec.message());
+}
+
+std::string now_iso() {
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
 
 RunDirectory::RunDirectory(const fs::path& dir, const io::Experiment& experiment)
     : dir_(dir), experiment_(experiment) {}
@@ -101,7 +103,7 @@ RunDirectory::RunDirectory(const fs::path& dir, const io::Settings& settings,
   fs::create_directories(dir / "episodes", ec);
   if (ec) throw Error("cannot create run directory " + dir.string() + ": " + ec.message());
   lock();
-  write_atomically(dir / "config.yaml", io::to_yaml(settings));
+  write_file_atomically(dir / "config.yaml", io::to_yaml(settings));
   episodes_csv_.open(dir / "episodes.csv", std::ios::trunc);
   if (!episodes_csv_) throw Error("cannot write " + (dir / "episodes.csv").string());
   episodes_csv_ << "episode,interaction_time_s,real_return,predicted_return,solved,phi,"
@@ -129,7 +131,7 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   if (rec.predicted.states.rows() > 0) write_trajectory(ep / "predicted.csv", rec.predicted, dt);
   std::string theta;
   for (Eigen::Index i = 0; i < rec.theta.size(); ++i) theta += fmt::format("{:.17g}\n", rec.theta[i]);
-  write_atomically(ep / "policy.csv", theta);
+  write_file_atomically(ep / "policy.csv", theta);
 
   episodes_csv_ << fmt::format("{},{:.3f},{:.6f},{:.6f},{},{},{:.3f},{:.3f},{}\n", rec.episode,
                                rec.interaction_time, rec.real_return, rec.predicted_return,
@@ -180,7 +182,7 @@ void RunDirectory::save_state(const algo::BlackDropsState& st) {
                             {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
                             {"data", {{"x", data_x}, {"u", data_u}, {"dx", data_dx}}}};
   // nlohmann writes the shortest decimal form that reads back to the same double.
-  write_atomically(dir_ / "checkpoint.json", j.dump() + "\n");
+  write_file_atomically(dir_ / "checkpoint.json", j.dump() + "\n");
 }
 
 std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir,
@@ -247,7 +249,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir,
       const int ep = std::atoi(line.c_str());
       if (ep >= 1 && ep <= k) kept += line + "\n";
     }
-    write_atomically(dir / "episodes.csv", kept);
+    write_file_atomically(dir / "episodes.csv", kept);
   }
   for (const auto& entry : fs::directory_iterator(dir / "episodes")) {
     const int ep = std::atoi(entry.path().filename().c_str());
@@ -293,7 +295,7 @@ void RunDirectory::write_summary(const std::string& status) {
   bool solved = false;
   for (const auto& e : summary_["episodes"]) solved = solved || e["solved"].get<bool>();
   summary_["solved"] = solved;
-  write_atomically(dir_ / "summary.json", summary_.dump(2) + "\n");
+  write_file_atomically(dir_ / "summary.json", summary_.dump(2) + "\n");
 }
 
 }  // namespace drops::app

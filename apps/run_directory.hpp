@@ -24,6 +24,12 @@
 
 namespace drops::app {
 
+/// Writes text to path through path.tmp and a rename, so a reader or a crash never sees a partial
+/// file. Throws drops::Error naming the file when it cannot be written or renamed.
+void write_file_atomically(const std::filesystem::path& path, const std::string& text);
+/// The current UTC time as ISO 8601 ("2026-11-21T17:05:27Z"), for logs and summaries.
+std::string now_iso();
+
 /// Thrown when another process holds the run directory's lock (drops run exits with code 3).
 class RunDirectoryBusy : public Error {
  public:

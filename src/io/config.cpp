@@ -142,19 +142,10 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 [[noreturn]] void unknown_key(const std::string& key, const std::string& value) {
-  std::string best;
-  std::size_t best_d = 1000;
-  for (const auto& s : schema()) {
-    const std::size_t d = edit_distance(key, s.key);
-    if (d < best_d) {
-      best_d = d;
-      best = s.key;
-    }
-  }
-  std::string msg = "unknown key";
-  if (best_d <= 4) msg += " (did you mean '" + best + "'?)";
-  msg += "; run 'drops config --markdown' for every key";
-  fail(key, value, msg);
+  std::vector<std::string> keys;
+  for (const auto& s : schema()) keys.push_back(s.key);
+  fail(key, value, "unknown key" + did_you_mean(key, keys) +
+                       "; run 'drops config --markdown' for every key");
 }
 
 double parse_double(const std::string& key, const YAML::Node& n) {
@@ -489,6 +480,19 @@ std::string schema_markdown() {
       << "` | " << range << " | " << s.unit << " | " << s.doc << " |\n";
   }
   return o.str();
+}
+
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = 5;  // suggest only within 4 edits
+  for (const auto& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  return best.empty() ? "" : " (did you mean '" + best + "'?)";
 }
 
 }  // namespace drops::io

@@ -24,6 +24,10 @@ struct KeySpec {
   std::string doc;         ///< meaning
 };
 
+/// " (did you mean 'x'?)" naming the candidate closest to word by edit distance (Levenshtein) when
+/// it is within 4 edits, else "". Used for every unknown-key message.
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates);
+
 /// The full schema, in documentation order.
 const std::vector<KeySpec>& schema();
 
