@@ -13,9 +13,24 @@
 #include <Eigen/Cholesky>
 
 #include "drops/core/errors.hpp"
+#include "predict_kernels.hpp"
+
+#ifdef DROPS_WITH_OPENBLAS
+extern "C" void openblas_set_num_threads(int num_threads);
+#endif
 
 namespace drops::gp {
 namespace {
+
+#ifdef DROPS_WITH_OPENBLAS
+// OpenBLAS (Eigen's backend for large products and the Cholesky factorization, see CMakeLists.txt)
+// runs every call on the calling thread: drops parallelises over GPs, rollouts and candidates with
+// oneTBB, and one thread per call keeps each result independent of the machine's core count.
+const bool kOpenBlasSingleThreaded = [] {
+  openblas_set_num_threads(1);
+  return true;
+}();
+#endif
 
 using Eigen::Index;
 using Eigen::MatrixXd;
@@ -286,62 +301,8 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
   variance = std::max(0.0, sf2 - k.squaredNorm());
 }
 
-namespace {
-
-// Forward substitution L V = V on W query columns [c, c + W) of a row-major n x width block V,
-// writing the column sums of squares of the solution to ss[c .. c + W). Lt: column-major n x n whose
-// column i holds row i of L above the diagonal (L^T in the strict upper part) and L(i, i) on the
-// diagonal. Left-looking with four independent accumulators to hide the FMA latency; several times
-// faster than a generic TRSM for the small blocks of the rollouts. One pack of 8 doubles is one
-// AVX-512 register. Every lane performs the same operations in the same order whatever W is, so a
-// query's variance does not depend on how the batch was split.
-template <int W>
-void forward_substitution(const MatrixXd& Lt, double* V, Index n, Index width, Index c, double* ss) {
-  using Pack = Eigen::Matrix<double, W, 1>;
-  Pack acc_ss = Pack::Zero();
-  for (Index i = 0; i < n; ++i) {
-    const double* li = Lt.data() + i * n;  // L(i, 0..i-1)
-    Pack a0 = Eigen::Map<const Pack>(V + i * width + c);
-    Pack a1 = Pack::Zero(), a2 = Pack::Zero(), a3 = Pack::Zero();
-    Index k = 0;
-    for (; k + 3 < i; k += 4) {
-      a0.noalias() -= li[k] * Eigen::Map<const Pack>(V + k * width + c);
-      a1.noalias() -= li[k + 1] * Eigen::Map<const Pack>(V + (k + 1) * width + c);
-      a2.noalias() -= li[k + 2] * Eigen::Map<const Pack>(V + (k + 2) * width + c);
-      a3.noalias() -= li[k + 3] * Eigen::Map<const Pack>(V + (k + 3) * width + c);
-    }
-    for (; k < i; ++k) a0.noalias() -= li[k] * Eigen::Map<const Pack>(V + k * width + c);
-    a0 += a2;
-    a1 += a3;
-    a0 = (a0 + a1) / li[i];
-    Eigen::Map<Pack>(V + i * width + c) = a0;
-    acc_ss += a0.cwiseAbs2();
-  }
-  Eigen::Map<Pack>(ss + c) = acc_ss;
-}
-
-// The first `used` columns of V (row stride width): packs of 8, then one of 4, 2 and 1 for the tail
-// (a CMA-ES population of 17 in batches of 8 leaves a batch of 1: no work on padding lanes).
-void forward_substitution_columns(const MatrixXd& Lt, double* V, Index n, Index width, Index used,
-                                  double* ss) {
-  Index c = 0;
-  for (; c + 8 <= used; c += 8) forward_substitution<8>(Lt, V, n, width, c, ss);
-  if (c + 4 <= used) {
-    forward_substitution<4>(Lt, V, n, width, c, ss);
-    c += 4;
-  }
-  if (c + 2 <= used) {
-    forward_substitution<2>(Lt, V, n, width, c, ss);
-    c += 2;
-  }
-  if (c < used) forward_substitution<1>(Lt, V, n, width, c, ss);
-}
-
-}  // namespace
-
 void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
                        Eigen::VectorXd& variance) const {
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   check_size("Gp::predict_batch: Xq columns (input dimension)", input_dim_, Xq.cols());
   const Index B = Xq.rows();
   const Index n = X_.rows();
@@ -358,19 +319,32 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
   const Index Bp = (B + 7) / 8 * 8;  // queries padded to a multiple of 8 (padding rows are 0)
   thread_local std::vector<double> buf;
   double* p = scratch(buf, static_cast<std::size_t>(Bp * (D + 2) + Bp + n * Bp));
-  Eigen::Map<MatrixXd> Qa(p, Bp, D + 2);              // rows [q, 1, -|q|^2 / 2]
-  Eigen::Map<VectorXd> ss(p + Bp * (D + 2), Bp);      // column sums of squares of L^-1 Kq^T
-  Eigen::Map<RowMajor> KT(p + Bp * (D + 2) + Bp, n, Bp);  // Kq^T, one query per column
+  Eigen::Map<MatrixXd> Qa(p, Bp, D + 2);          // rows [q, 1, -|q|^2 / 2]
+  Eigen::Map<VectorXd> ss(p + Bp * (D + 2), Bp);  // column sums of squares of L^-1 Kq^T
+  double* KT = p + Bp * (D + 2) + Bp;             // n x Bp row-major: Kq^T, one query per column
   Qa.topLeftCorner(B, D) =
       ((Xq.rowwise() - X_mean_).array().rowwise() / kernel_.length_scales.transpose().array())
           .matrix();
   Qa.col(D).head(B).setOnes();
   Qa.col(D + 1).head(B) = -0.5 * Qa.topLeftCorner(B, D).rowwise().squaredNorm();
   Qa.bottomRows(Bp - B).setZero();
-  KT.noalias() = Xa_ * Qa.transpose();  // -1/2 squared scaled distances
-  KT = KT.array().min(0.0).exp() * sf2;
-  mean.noalias() = KT.leftCols(B).transpose() * alpha_;
-  forward_substitution_columns(L_, KT.data(), n, Bp, B, ss.data());
+  // Kernel, mean and forward substitution: src/gp/predict_kernels.inc, compiled for AVX-512, AVX2
+  // and baseline x86-64 and chosen at run time (results differ at round-off between the variants,
+  // so between machines with different instruction sets, never between runs or thread counts).
+  kernels::PredictArgs args;
+  args.xa = Xa_.data();
+  args.lt = L_.data();
+  args.alpha = alpha_.data();
+  args.n = n;
+  args.d2 = D + 2;
+  args.qa = Qa.data();
+  args.used = B;
+  args.bp = Bp;
+  args.sf2 = sf2;
+  args.v = KT;
+  args.mean = mean.data();
+  args.ss = ss.data();
+  kernels::predict_block(args);
   variance = (sf2 - ss.head(B).array()).max(0.0).matrix();
 }
 

@@ -1,0 +1,45 @@
+// Run-time choice of the predict_block variant (compiled for baseline x86-64).
+#include "predict_kernels.hpp"
+
+namespace drops::gp::kernels {
+
+bool supported(Isa isa) {
+  switch (isa) {
+    case Isa::kAvx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2") &&
+             __builtin_cpu_supports("fma");
+    case Isa::kAvx2:
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case Isa::kGeneric:
+      return true;
+  }
+  return false;
+}
+
+Isa selected_isa() {
+  static const Isa isa = supported(Isa::kAvx512) ? Isa::kAvx512
+                         : supported(Isa::kAvx2) ? Isa::kAvx2
+                                                 : Isa::kGeneric;
+  return isa;
+}
+
+const char* isa_name(Isa isa) {
+  switch (isa) {
+    case Isa::kAvx512: return "avx512";
+    case Isa::kAvx2: return "avx2";
+    case Isa::kGeneric: return "generic";
+  }
+  return "?";
+}
+
+void predict_block(Isa isa, const PredictArgs& args) {
+  switch (isa) {
+    case Isa::kAvx512: predict_block_avx512(args); return;
+    case Isa::kAvx2: predict_block_avx2(args); return;
+    case Isa::kGeneric: predict_block_generic(args); return;
+  }
+}
+
+void predict_block(const PredictArgs& args) { predict_block(selected_isa(), args); }
+
+}  // namespace drops::gp::kernels

@@ -1,0 +1,3 @@
+// predict_block for avx2 (compiled with the flags set in CMakeLists.txt); see predict_kernels.inc.
+#define DROPS_KERNEL_FN predict_block_avx2
+#include "predict_kernels.inc"

@@ -1,0 +1,103 @@
+// The GP prediction kernel variants (src/gp/predict_kernels*.cpp): each supported instruction set
+// agrees with the baseline one at round-off, and within a variant a query's results do not depend
+// on the batch it came in (bit for bit).
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <vector>
+
+#include "drops/core/rng.hpp"
+#include "gp/predict_kernels.hpp"
+
+namespace {
+
+using drops::Rng;
+using drops::gp::kernels::Isa;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// A positive definite problem in the layout predict_block expects (see PredictArgs).
+struct Problem {
+  int n = 60, d2 = 6, queries = 20;
+  MatrixXd xa, lt, qa;  // qa: padded to 24 rows
+  VectorXd alpha;
+  explicit Problem(Rng& rng) {
+    const int D = d2 - 2;
+    MatrixXd X(n, D), Q(queries, D);
+    for (int i = 0; i < n; ++i)
+      for (int d = 0; d < D; ++d) X(i, d) = rng.uniform(-1.0, 1.0);
+    for (int i = 0; i < queries; ++i)
+      for (int d = 0; d < D; ++d) Q(i, d) = rng.uniform(-1.5, 1.5);
+    xa.resize(n, d2);
+    xa << X, -0.5 * X.rowwise().squaredNorm(), VectorXd::Ones(n);
+    qa = MatrixXd::Zero(24, d2);
+    qa.topRows(queries) << Q, VectorXd::Ones(queries), -0.5 * Q.rowwise().squaredNorm();
+    MatrixXd K(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) K(i, j) = std::exp(-0.5 * (X.row(i) - X.row(j)).squaredNorm());
+    K.diagonal().array() += 0.01;
+    MatrixXd L = K.llt().matrixL();
+    L.triangularView<Eigen::StrictlyUpper>() = L.transpose();
+    lt = L;
+    alpha.resize(n);
+    for (int i = 0; i < n; ++i) alpha[i] = rng.uniform(-1.0, 1.0);
+  }
+  // Queries [first, first + count) through `isa`.
+  void run(Isa isa, int first, int count, std::vector<double>& mean, std::vector<double>& ss) const {
+    const int bp = (count + 7) / 8 * 8;
+    MatrixXd q = MatrixXd::Zero(bp, d2);
+    q.topRows(count) = qa.middleRows(first, count);
+    std::vector<double> v(static_cast<std::size_t>(n * bp));
+    mean.assign(static_cast<std::size_t>(count), 0.0);
+    ss.assign(static_cast<std::size_t>(count), 0.0);
+    drops::gp::kernels::PredictArgs a;
+    a.xa = xa.data();
+    a.lt = lt.data();
+    a.alpha = alpha.data();
+    a.n = n;
+    a.d2 = d2;
+    a.qa = q.data();
+    a.used = count;
+    a.bp = bp;
+    a.sf2 = 1.3;
+    a.v = v.data();
+    a.mean = mean.data();
+    a.ss = ss.data();
+    drops::gp::kernels::predict_block(isa, a);
+  }
+};
+
+TEST(GpKernels, EverySupportedVariantMatchesBaselineAndIgnoresTheBatchSplit) {
+  Rng rng(3);
+  const Problem p(rng);
+  std::vector<double> ref_m, ref_s;
+  p.run(Isa::kGeneric, 0, p.queries, ref_m, ref_s);
+  for (const Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kGeneric}) {
+    if (!drops::gp::kernels::supported(isa)) continue;
+    SCOPED_TRACE(drops::gp::kernels::isa_name(isa));
+    std::vector<double> all_m, all_s, m, s;
+    p.run(isa, 0, p.queries, all_m, all_s);
+    for (int q = 0; q < p.queries; ++q) {
+      EXPECT_NEAR(all_m[q], ref_m[q], 1e-12 * (1.0 + std::abs(ref_m[q]))) << "q=" << q;
+      EXPECT_NEAR(all_s[q], ref_s[q], 1e-12 * (1.0 + std::abs(ref_s[q]))) << "q=" << q;
+    }
+    // Every split into a first query and a count (packs of 8, 4, 2 and a lone query) gives the same
+    // bits as the whole batch.
+    for (int first = 0; first < p.queries; ++first)
+      for (int count = 1; first + count <= p.queries; ++count) {
+        p.run(isa, first, count, m, s);
+        for (int q = 0; q < count; ++q) {
+          ASSERT_EQ(m[q], all_m[first + q]) << "first=" << first << " count=" << count << " q=" << q;
+          ASSERT_EQ(s[q], all_s[first + q]) << "first=" << first << " count=" << count << " q=" << q;
+        }
+      }
+  }
+}
+
+TEST(GpKernels, SelectedVariantIsSupported) {
+  EXPECT_TRUE(drops::gp::kernels::supported(drops::gp::kernels::selected_isa()));
+  EXPECT_TRUE(drops::gp::kernels::supported(Isa::kGeneric));
+}
+
+}  // namespace
