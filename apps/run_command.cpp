@@ -16,6 +16,7 @@
 #include "drops/core/parallel.hpp"
 #include "drops/io/config.hpp"
 #include "run_directory.hpp"
+#include "task_setup.hpp"
 
 namespace drops::app {
 namespace {
@@ -106,17 +107,15 @@ int run_main(const RunArgs& a) {
   const io::Experiment e = io::make_experiment(settings);
   ThreadLimit threads(e.threads);
 
-  auto task = std::make_shared<pendubot::SwingUpTask>(e.task_options);
-  pendubot::PendubotSystem real(e.actual, e.task_options);
-  auto prior = std::make_shared<pendubot::PendubotPrior>(e.task_options);
-  policy::NeuralNetPolicy policy(e.policy);
+  const TaskSetup setup = make_task_setup(e);
 
   try {
     if (resuming) {
-      dir = RunDirectory::reopen(a.resume, e, &state);
+      dir = RunDirectory::reopen(a.resume, e, setup, &state);
     } else {
       const std::string name = e.name.empty() ? default_name(e) : e.name;
-      dir = std::make_unique<RunDirectory>(std::filesystem::path(e.output) / name, settings, e);
+      dir = std::make_unique<RunDirectory>(std::filesystem::path(e.output) / name, settings, e,
+                                           setup);
     }
   } catch (const RunDirectoryBusy& ex) {
     std::cerr << "drops: " << ex.what() << "\n";
@@ -172,8 +171,8 @@ int run_main(const RunArgs& a) {
 
   algo::BlackDropsSummary summary;
   try {
-    summary = algo::run_black_drops(task, real, policy, prior, e.prior, e.algo, cb,
-                                    resuming ? &state : nullptr);
+    summary = algo::run_black_drops(setup.task, *setup.real, *setup.policy, setup.prior, e.prior,
+                                    e.algo, cb, resuming ? &state : nullptr);
   } catch (const std::exception& ex) {
     if (live) std::cerr << "\r\033[K";
     dir->finish(summary, "failed", ex.what());

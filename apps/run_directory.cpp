@@ -24,21 +24,6 @@ std::string phi_text(const VectorXd& phi) {
   return s;
 }
 
-void write_trajectory(const fs::path& path, const rollout::Trajectory& tr, double dt) {
-  std::string text = "t,dtheta1,dtheta2,theta1,theta2,u,reward\n";
-  for (Eigen::Index t = 0; t < tr.states.rows(); ++t) {
-    text += fmt::format("{:.4f}", t * dt);
-    for (Eigen::Index i = 0; i < tr.states.cols(); ++i) text += fmt::format(",{:.10g}", tr.states(t, i));
-    if (t < tr.actions.rows()) {
-      for (Eigen::Index i = 0; i < tr.actions.cols(); ++i) text += fmt::format(",{:.10g}", tr.actions(t, i));
-    } else {
-      text += ",";
-    }
-    text += t > 0 ? fmt::format(",{:.10g}\n", tr.rewards[t - 1]) : ",\n";
-  }
-  write_file_atomically(path, text);
-}
-
 std::vector<double> to_std(const VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
 VectorXd to_eigen(const nlohmann::json& j, const char* what) {
@@ -77,8 +62,34 @@ std::string now_iso() {
   return buf;
 }
 
-RunDirectory::RunDirectory(const fs::path& dir, const io::Experiment& experiment)
-    : dir_(dir), experiment_(experiment) {}
+RunDirectory::RunDirectory(const fs::path& dir, const io::Experiment& experiment,
+                           const TaskSetup& setup)
+    : dir_(dir), experiment_(experiment), setup_(setup) {}
+
+void RunDirectory::write_trajectory(const fs::path& path, const rollout::Trajectory& tr) const {
+  const double dt = setup_.task->dt();
+  std::string text = "t";
+  for (const auto& n : setup_.state_names) text += "," + n;
+  for (const auto& n : setup_.action_names) text += "," + n;
+  text += ",reward";
+  for (const auto& n : setup_.state_extra_names) text += "," + n;
+  text += "\n";
+  const std::string no_action(static_cast<std::size_t>(tr.actions.cols()), ',');
+  for (Eigen::Index t = 0; t < tr.states.rows(); ++t) {
+    text += fmt::format("{:.4f}", static_cast<double>(t) * dt);
+    for (Eigen::Index i = 0; i < tr.states.cols(); ++i) text += fmt::format(",{:.10g}", tr.states(t, i));
+    if (t < tr.actions.rows()) {
+      for (Eigen::Index i = 0; i < tr.actions.cols(); ++i) text += fmt::format(",{:.10g}", tr.actions(t, i));
+    } else {
+      text += no_action;
+    }
+    text += t > 0 ? fmt::format(",{:.10g}", tr.rewards[t - 1]) : ",";
+    if (setup_.state_extras)
+      for (double v : setup_.state_extras(tr.states.row(t).transpose())) text += fmt::format(",{:.6g}", v);
+    text += "\n";
+  }
+  write_file_atomically(path, text);
+}
 
 RunDirectory::~RunDirectory() {
   if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the flock
@@ -93,8 +104,8 @@ void RunDirectory::lock() {
 }
 
 RunDirectory::RunDirectory(const fs::path& dir, const io::Settings& settings,
-                           const io::Experiment& experiment)
-    : dir_(dir), experiment_(experiment) {
+                           const io::Experiment& experiment, const TaskSetup& setup)
+    : dir_(dir), experiment_(experiment), setup_(setup) {
   if (fs::exists(dir / "episodes.csv"))
     throw Error("run directory " + dir.string() +
                 " already holds a run; choose another name=, remove it, or continue it with "
@@ -107,17 +118,17 @@ RunDirectory::RunDirectory(const fs::path& dir, const io::Settings& settings,
   episodes_csv_.open(dir / "episodes.csv", std::ios::trunc);
   if (!episodes_csv_) throw Error("cannot write " + (dir / "episodes.csv").string());
   episodes_csv_ << "episode,interaction_time_s,real_return,predicted_return,solved,phi,"
-                   "model_learning_s,policy_optimization_s,evaluations\n";
+                   "model_learning_s,policy_optimization_s,evaluations";
+  for (const auto& m : setup.metric_names) episodes_csv_ << "," << m;
+  episodes_csv_ << "\n";
   episodes_csv_.flush();
-  const VectorXd actual = experiment.actual.to_phi();
-  const std::vector<double> phi_actual(actual.data(), actual.data() + actual.size());
   summary_ = {{"task", experiment.task},
               {"model", model::to_string(experiment.algo.model.type)},
               {"prior", experiment.prior_preset},
               {"seed", experiment.seed},
               {"episodes_planned", experiment.algo.episodes},
               {"phi_names", experiment.prior.names},
-              {"phi_actual", phi_actual},
+              {"phi_actual", experiment.phi_actual},
               {"started", now_iso()},
               {"episodes", nlohmann::json::array()}};
   write_summary("running");
@@ -126,17 +137,19 @@ RunDirectory::RunDirectory(const fs::path& dir, const io::Settings& settings,
 void RunDirectory::record(const algo::EpisodeRecord& rec) {
   const fs::path ep = dir_ / "episodes" / fmt::format("{:03d}", rec.episode);
   fs::create_directories(ep);
-  const double dt = experiment_.task_options.dt;
-  write_trajectory(ep / "real.csv", rec.real, dt);
-  if (rec.predicted.states.rows() > 0) write_trajectory(ep / "predicted.csv", rec.predicted, dt);
+  write_trajectory(ep / "real.csv", rec.real);
+  if (rec.predicted.states.rows() > 0) write_trajectory(ep / "predicted.csv", rec.predicted);
+  const std::vector<double> metrics = setup_.metrics ? setup_.metrics(rec) : std::vector<double>{};
   std::string theta;
   for (Eigen::Index i = 0; i < rec.theta.size(); ++i) theta += fmt::format("{:.17g}\n", rec.theta[i]);
   write_file_atomically(ep / "policy.csv", theta);
 
-  episodes_csv_ << fmt::format("{},{:.3f},{:.6f},{:.6f},{},{},{:.3f},{:.3f},{}\n", rec.episode,
+  episodes_csv_ << fmt::format("{},{:.3f},{:.6f},{:.6f},{},{},{:.3f},{:.3f},{}", rec.episode,
                                rec.interaction_time, rec.real_return, rec.predicted_return,
                                rec.solved ? 1 : 0, phi_text(rec.phi), rec.model_seconds,
                                rec.policy_seconds, rec.evaluations);
+  for (double m : metrics) episodes_csv_ << fmt::format(",{:.6g}", m);
+  episodes_csv_ << "\n";
   episodes_csv_.flush();
 
   nlohmann::json e = {{"episode", rec.episode},
@@ -156,6 +169,8 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
                       {"phi_evaluations", rec.model.phi_evaluations},
                       {"rprop_iterations", rec.model.rprop_iterations},
                       {"policy_search", rec.random_policy ? "random" : rec.policy_search.BriefReport()}};
+  for (std::size_t i = 0; i < metrics.size() && i < setup_.metric_names.size(); ++i)
+    e[setup_.metric_names[i]] = std::isfinite(metrics[i]) ? nlohmann::json(metrics[i]) : nlohmann::json(nullptr);
   summary_["episodes"].push_back(e);
   if (rec.solved && !summary_.contains("first_solved_episode"))
     summary_["first_solved_episode"] = rec.episode;
@@ -187,8 +202,9 @@ void RunDirectory::save_state(const algo::BlackDropsState& st) {
 
 std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir,
                                                    const io::Experiment& experiment,
+                                                   const TaskSetup& setup,
                                                    algo::BlackDropsState* state) {
-  std::unique_ptr<RunDirectory> rd(new RunDirectory(dir, experiment));
+  std::unique_ptr<RunDirectory> rd(new RunDirectory(dir, experiment, setup));
   if (!fs::exists(dir / "config.yaml"))
     throw Error(dir.string() + " is not a run directory (no config.yaml)");
   rd->lock();

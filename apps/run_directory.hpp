@@ -5,7 +5,8 @@
 //   config.yaml            resolved configuration (every key)
 //   episodes.csv           one row per finished episode (appended and flushed at episode end)
 //   summary.json           status, progress and results (rewritten atomically after each episode)
-//   episodes/NNN/real.csv       real trajectory: t, states, action, reward
+//   episodes/NNN/real.csv       real trajectory: t, states, actions, reward, then the task's
+//                               per-state extras (hexapod: foot heights)
 //   episodes/NNN/predicted.csv  mean-propagated trajectory on the model that chose the policy
 //   episodes/NNN/policy.csv     policy parameters theta (one per line)
 //   checkpoint.json        state of Algorithm 1 after the last finished episode (drops run --resume)
@@ -21,6 +22,7 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/io/config.hpp"
+#include "task_setup.hpp"
 
 namespace drops::app {
 
@@ -40,9 +42,10 @@ class RunDirectory {
  public:
   /// Creates the directory (throws drops::Error if it exists and holds an episodes.csv, or cannot
   /// be created) and writes config.yaml and the header of episodes.csv. Takes the lock
-  /// (RunDirectoryBusy if another process holds it).
+  /// (RunDirectoryBusy if another process holds it). setup names the trajectory columns and the
+  /// task's per-episode metrics; it must outlive the RunDirectory.
   RunDirectory(const std::filesystem::path& dir, const io::Settings& settings,
-               const io::Experiment& experiment);
+               const io::Experiment& experiment, const TaskSetup& setup);
   ~RunDirectory();
   RunDirectory(const RunDirectory&) = delete;
   RunDirectory& operator=(const RunDirectory&) = delete;
@@ -54,6 +57,7 @@ class RunDirectory {
   /// checkpoint.json (no episode finished: start the run again) or it does not fit the experiment.
   static std::unique_ptr<RunDirectory> reopen(const std::filesystem::path& dir,
                                               const io::Experiment& experiment,
+                                              const TaskSetup& setup,
                                               algo::BlackDropsState* state);
 
   /// Writes every file of one finished episode, then appends its row and rewrites summary.json.
@@ -67,13 +71,16 @@ class RunDirectory {
   const std::filesystem::path& path() const { return dir_; }
 
  private:
-  RunDirectory(const std::filesystem::path& dir, const io::Experiment& experiment);
+  RunDirectory(const std::filesystem::path& dir, const io::Experiment& experiment,
+               const TaskSetup& setup);
   void lock();
+  void write_trajectory(const std::filesystem::path& path, const rollout::Trajectory& tr) const;
   void write_summary(const std::string& status);
   int lock_fd_ = -1;
   double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
   std::filesystem::path dir_;
   io::Experiment experiment_;
+  const TaskSetup& setup_;
   std::ofstream episodes_csv_;
   nlohmann::json summary_;
 };

@@ -83,3 +83,57 @@ TEST(Config, MarkdownListsEveryKey) {
   const std::string md = io::schema_markdown();
   for (const auto& k : io::schema()) EXPECT_NE(md.find("`" + k.key + "`"), std::string::npos);
 }
+
+TEST(Config, HexapodBuildsTheSevenPriorFamilyAndTaskDefaults) {
+  const auto e = io::make_experiment(io::load_settings("task: hexapod\n", {}));
+  EXPECT_EQ(e.task, "hexapod");
+  EXPECT_EQ(e.prior.names, (std::vector<std::string>{"removed_leg"}));
+  ASSERT_EQ(e.prior.values.size(), 1);
+  EXPECT_EQ(e.prior.values[0], -1.0);  // starts from the intact prior
+  EXPECT_EQ(e.prior.tunable, (std::vector<int>{0}));
+  ASSERT_EQ(e.prior.choices.size(), 1u);
+  EXPECT_EQ(e.prior.choices[0], (std::vector<double>{-1, 0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(e.prior.lower[0], -1.0);
+  EXPECT_EQ(e.prior.upper[0], 5.0);
+  EXPECT_EQ(e.prior_preset, "intact");
+  EXPECT_EQ(e.phi_actual, (std::vector<double>{-1}));
+  EXPECT_DOUBLE_EQ(e.algo.theta_bound, 0.5);  // gait parameters theta + 0.5 in [0, 1]
+  EXPECT_EQ(e.algo.cmaes.max_evaluations, 2000);
+  EXPECT_EQ(e.hexapod.horizon, 40);
+  // The pendubot keeps its own derived defaults.
+  const auto p = io::make_experiment(io::load_settings("", {}));
+  EXPECT_DOUBLE_EQ(p.algo.theta_bound, 5.0);
+  EXPECT_EQ(p.algo.cmaes.max_evaluations, 10000);
+  // Explicit values win over the derived ones.
+  const auto x = io::make_experiment(
+      io::load_settings("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}));
+  EXPECT_DOUBLE_EQ(x.algo.theta_bound, 0.25);
+  EXPECT_EQ(x.algo.cmaes.max_evaluations, 300);
+}
+
+TEST(Config, HexapodDamageAndPriorChoices) {
+  const auto e = io::make_experiment(io::load_settings(
+      "task: hexapod\nhexapod:\n  damage: {removed_leg: leg5, blocked_leg: leg1, blocked_joint: 2}\n"
+      "  prior: {start: leg0, choices: [leg5, intact, leg0]}\n",
+      {}));
+  EXPECT_EQ(e.hexapod.removed_leg, 5);
+  EXPECT_EQ(e.hexapod.blocked_leg, 1);
+  EXPECT_EQ(e.hexapod.blocked_joint, 2);
+  EXPECT_EQ(e.phi_actual, (std::vector<double>{5}));
+  EXPECT_EQ(e.prior.choices[0], (std::vector<double>{-1, 0, 5}));  // sorted
+  EXPECT_EQ(e.prior.values[0], 0.0);
+  EXPECT_EQ(e.prior_preset, "leg0");
+  // A start outside the family, an impossible damage and an unknown leg name are named.
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.start=leg2", "hexapod.prior.choices=[intact]"})
+                .find("hexapod.prior.start"),
+            std::string::npos);
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.damage.removed_leg=leg3",
+                                          "hexapod.damage.shortened_leg=leg3"})
+                .find("leg3 is removed"),
+            std::string::npos);
+  const std::string bad = error_of("task: hexapod\n", {"hexapod.damage.removed_leg=leg7"});
+  EXPECT_NE(bad.find("hexapod.damage.removed_leg"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("leg5"), std::string::npos) << bad;  // lists what is allowed
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.damge.removed_leg=leg0"}).find("did you mean"),
+            std::string::npos);
+}

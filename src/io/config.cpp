@@ -15,12 +15,22 @@ namespace drops::io {
 namespace {
 
 const std::vector<std::string> kParams = {"m1", "m2", "l1", "l2", "b1", "b2"};
+const std::vector<std::string> kLegChoices = {"intact", "leg0", "leg1", "leg2",
+                                              "leg3",   "leg4", "leg5"};
+const std::vector<std::string> kDamageChoices = {"none", "leg0", "leg1", "leg2",
+                                                 "leg3", "leg4", "leg5"};
+/// "intact"/"none" -> -1, "legk" -> k.
+int leg_index(const std::string& name) {
+  return name == "intact" || name == "none" ? -1 : name[3] - '0';
+}
 
 std::vector<KeySpec> build_schema() {
   std::vector<KeySpec> s;
   auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
   const double big = 1e9;
-  add({"task", "enum", "pendubot", 0, 0, {"pendubot"}, "-", "the learning problem"});
+  add({"task", "enum", "pendubot", 0, 0, {"pendubot", "hexapod"}, "-",
+       "the learning problem: pendubot swing-up (paper §V-A) or hexapod locomotion (§V-B, needs a "
+       "build with DART)"});
   add({"seed", "int", "1", 0, 4294967295.0, {}, "-",
        "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
   add({"episodes", "int", "10", 1, 1000, {}, "-", "real episodes in total, including the first one"});
@@ -60,6 +70,32 @@ std::vector<KeySpec> build_schema() {
        "solved: the tip stays within this distance of upright ..."});
   add({"pendubot.solved_window", "double", "0.5", 0, 100, {}, "s",
        "... for the whole last solved_window seconds of the episode"});
+  add({"hexapod.horizon", "int", "40", 1, 10000, {}, "-",
+       "hexapod: control steps of 0.1 s per episode (40 = the paper's 4 s)"});
+  add({"hexapod.prior.start", "enum", "intact", 0, 0, kLegChoices, "-",
+       "hexapod: the prior simulator of episode 1 and of gp_prior, GP-MI's starting point: the "
+       "intact robot or leg k removed (legs 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, "
+       "4 mid-right, 5 rear-right)"});
+  add({"hexapod.prior.choices", "names", "[intact, leg0, leg1, leg2, leg3, leg4, leg5]", 0, 0,
+       kLegChoices, "-", "hexapod: the prior family GP-MI and MI search exhaustively (the paper's 7)"});
+  add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
+       "hexapod: the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
+  add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
+       "hexapod: a leg of the real robot whose tibia is shortened (damage outside the prior family)"});
+  add({"hexapod.damage.tibia_factor", "double", "0.5", 0.05, 1, {}, "-",
+       "hexapod: the shortened tibia's length as a fraction of the intact one"});
+  add({"hexapod.damage.blocked_leg", "enum", "none", 0, 0, kDamageChoices, "-",
+       "hexapod: a leg of the real robot with one joint blocked (damage outside the prior family)"});
+  add({"hexapod.damage.blocked_joint", "int", "1", 0, 2, {}, "-",
+       "hexapod: which joint of blocked_leg is blocked (0 hip, 1 femur, 2 tibia)"});
+  add({"hexapod.damage.blocked_angle", "double", "0", -1.5707963267948966, 1.5707963267948966, {},
+       "rad", "hexapod: the angle the blocked joint is held at (within its limits)"});
+  add({"hexapod.noise", "bool", "true", 0, 0, {}, "-",
+       "hexapod: measurement noise on the real robot's state (motion capture, encoders)"});
+  add({"hexapod.guard", "enum", "stop", 0, 0, {"stop", "clamp"}, "-",
+       "hexapod: what the prior does with an implausible predicted state (non-finite, beyond joint "
+       "limits, body height out of range): stop that rollout, or clamp the state and go on; every "
+       "event is counted in the episode summary"});
   add({"model.type", "enum", "gp_mi", 0, 0, {"gp", "gp_prior", "gp_mi", "mi"}, "-",
        "gp: Black-DROPS; gp_prior: with priors; gp_mi: with GP-MI; mi: with MI (no GP)"});
   add({"model.rprop.iterations", "int", "300", 1, 100000, {}, "-",
@@ -83,10 +119,12 @@ std::vector<KeySpec> build_schema() {
   add({"model.mi.max_evaluations", "int", "2000", 1, 1000000, {}, "-", "Subplex evaluations of MI"});
   add({"model.mi.tolerance", "double", "1e-6", 0, 1, {}, "-", "Subplex relative tolerance of MI"});
   add({"policy.hidden_units", "int", "10", 1, 1000, {}, "-", "tanh units of the network policy"});
-  add({"policy.bound", "double", "5", 1e-3, 1000, {}, "-",
-       "policy parameters are searched in [-bound, bound]"});
-  add({"optimizer.max_evaluations", "int", "10000", 10, 100000000, {}, "-",
-       "CMA-ES policy evaluations per optimization (all restarts)"});
+  add({"policy.bound", "double", "", 1e-3, 1000, {}, "-",
+       "policy parameters are searched in [-bound, bound] (empty = 5 for the pendubot's network; "
+       "0.5 for the hexapod's gait, whose parameters in [0, 1] are theta + 0.5)"});
+  add({"optimizer.max_evaluations", "int", "", 10, 100000000, {}, "-",
+       "CMA-ES policy evaluations per optimization, all restarts (empty = 10000 for the pendubot, "
+       "2000 for the hexapod, whose rollouts cost about 50 times more)"});
   add({"optimizer.restarts", "int", "3", 0, 100, {}, "-", "BIPOP restarts after the first run"});
   add({"optimizer.lambda", "int", "0", 0, 100000, {}, "-",
        "population size of the first run (0 = 4 + floor(3 ln n), 17 for 81 parameters)"});
@@ -194,6 +232,7 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     fail(s.key, text, "expected true or false");
   }
   if (s.type == "int") {
+    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
     const double v = parse_double(s.key, n);
     if (v != std::floor(v)) fail(s.key, text, "expected an integer");
     check_range(s, v, text);
@@ -302,6 +341,49 @@ Settings load_settings_file(const std::string& path, const std::vector<std::stri
   }
 }
 
+namespace {
+// The hexapod part of make_experiment: plain settings (the hexapod target builds the robot from
+// them, apps/task_setup.cpp) and the discrete prior family of GP-MI (paper §V-B: 7 priors).
+void hexapod_experiment(const Settings& st, Experiment& e) {
+  auto& h = e.hexapod;
+  h.horizon = std::stoi(st.at("hexapod.horizon"));
+  h.prior_start = leg_index(st.at("hexapod.prior.start"));
+  h.prior_choices.clear();
+  for (const auto& n : YAML::Load(st.at("hexapod.prior.choices")))
+    h.prior_choices.push_back(leg_index(n.as<std::string>()));
+  std::sort(h.prior_choices.begin(), h.prior_choices.end());
+  if (h.prior_choices.empty())
+    throw ConfigError("config key 'hexapod.prior.choices' = '[]': name at least one prior");
+  if (std::find(h.prior_choices.begin(), h.prior_choices.end(), h.prior_start) ==
+      h.prior_choices.end())
+    throw ConfigError("config key 'hexapod.prior.start' = '" + st.at("hexapod.prior.start") +
+                      "': not among hexapod.prior.choices = " + st.at("hexapod.prior.choices"));
+  h.removed_leg = leg_index(st.at("hexapod.damage.removed_leg"));
+  h.shortened_leg = leg_index(st.at("hexapod.damage.shortened_leg"));
+  h.tibia_factor = std::stod(st.at("hexapod.damage.tibia_factor"));
+  h.blocked_leg = leg_index(st.at("hexapod.damage.blocked_leg"));
+  h.blocked_joint = std::stoi(st.at("hexapod.damage.blocked_joint"));
+  h.blocked_angle = std::stod(st.at("hexapod.damage.blocked_angle"));
+  h.noise = st.at("hexapod.noise") == "true";
+  h.guard_clamp = st.at("hexapod.guard") == "clamp";
+  for (int leg : {h.shortened_leg, h.blocked_leg})
+    if (leg >= 0 && leg == h.removed_leg)
+      throw ConfigError("config: hexapod.damage: leg" + std::to_string(leg) +
+                        " is removed; it cannot also be shortened or blocked");
+
+  // The prior family: phi = [removed_leg], one discrete tunable entry.
+  auto& p = e.prior;
+  p.names = {"removed_leg"};
+  p.values = VectorXd::Constant(1, h.prior_start);
+  p.tunable = {0};
+  p.lower = VectorXd::Constant(1, h.prior_choices.front());
+  p.upper = VectorXd::Constant(1, h.prior_choices.back());
+  p.choices = {std::vector<double>(h.prior_choices.begin(), h.prior_choices.end())};
+  e.prior_preset = st.at("hexapod.prior.start");
+  e.phi_actual = {static_cast<double>(h.removed_leg)};
+}
+}  // namespace
+
 Experiment make_experiment(const Settings& st) {
   auto str = [&](const std::string& k) { return st.at(k); };
   auto dbl = [&](const std::string& k) { return std::stod(st.at(k)); };
@@ -333,52 +415,59 @@ Experiment make_experiment(const Settings& st) {
   to.goal_l1 = e.actual.l1;  // the reward uses the actual lengths (settings.md §2)
   to.goal_l2 = e.actual.l2;
 
-  auto& p = e.prior;
-  p.names = kParams;
-  p.values = pendubot::preset(e.prior_preset).to_phi();
-  for (int i = 0; i < 6; ++i) {
-    const std::string k = "prior." + kParams[static_cast<std::size_t>(i)];
-    if (!st.at(k).empty()) p.values[i] = dbl(k);
-  }
-  try {
-    pendubot::Params::from_phi(p.values).check();
-  } catch (const InvalidArgument& ex) {
-    throw ConfigError(std::string("prior: ") + ex.what());
-  }
-  const YAML::Node tun = YAML::Load(st.at("prior.tunable"));
-  for (const auto& n : tun) {
-    const auto it = std::find(kParams.begin(), kParams.end(), n.as<std::string>());
-    p.tunable.push_back(static_cast<int>(it - kParams.begin()));
-  }
-  std::sort(p.tunable.begin(), p.tunable.end());
-  p.lower.resize(static_cast<Eigen::Index>(p.tunable.size()));
-  p.upper.resize(static_cast<Eigen::Index>(p.tunable.size()));
-  p.choices.assign(p.tunable.size(), {});
-  for (std::size_t k = 0; k < p.tunable.size(); ++k) {
-    const std::string& name = kParams[static_cast<std::size_t>(p.tunable[k])];
-    const auto b = interval(st.at("prior.bounds." + name));
-    p.lower[static_cast<Eigen::Index>(k)] = b[0];
-    p.upper[static_cast<Eigen::Index>(k)] = b[1];
-    const double v = p.values[p.tunable[k]];
-    if (v < b[0] || v > b[1]) {
-      std::ostringstream o;
-      o << "config key 'prior.bounds." << name << "' = '" << st.at("prior.bounds." + name)
-        << "': the prior's starting " << name << " = " << v << " lies outside it";
-      throw ConfigError(o.str());
+  e.phi_actual.assign(actual.data(), actual.data() + actual.size());
+  if (e.task == "pendubot") {
+    auto& p = e.prior;
+    p.names = kParams;
+    p.values = pendubot::preset(e.prior_preset).to_phi();
+    for (int i = 0; i < 6; ++i) {
+      const std::string k = "prior." + kParams[static_cast<std::size_t>(i)];
+      if (!st.at(k).empty()) p.values[i] = dbl(k);
     }
-  }
+    try {
+      pendubot::Params::from_phi(p.values).check();
+    } catch (const InvalidArgument& ex) {
+      throw ConfigError(std::string("prior: ") + ex.what());
+    }
+    const YAML::Node tun = YAML::Load(st.at("prior.tunable"));
+    for (const auto& n : tun) {
+      const auto it = std::find(kParams.begin(), kParams.end(), n.as<std::string>());
+      p.tunable.push_back(static_cast<int>(it - kParams.begin()));
+    }
+    std::sort(p.tunable.begin(), p.tunable.end());
+    p.lower.resize(static_cast<Eigen::Index>(p.tunable.size()));
+    p.upper.resize(static_cast<Eigen::Index>(p.tunable.size()));
+    p.choices.assign(p.tunable.size(), {});
+    for (std::size_t k = 0; k < p.tunable.size(); ++k) {
+      const std::string& name = kParams[static_cast<std::size_t>(p.tunable[k])];
+      const auto b = interval(st.at("prior.bounds." + name));
+      p.lower[static_cast<Eigen::Index>(k)] = b[0];
+      p.upper[static_cast<Eigen::Index>(k)] = b[1];
+      const double v = p.values[p.tunable[k]];
+      if (v < b[0] || v > b[1]) {
+        std::ostringstream o;
+        o << "config key 'prior.bounds." << name << "' = '" << st.at("prior.bounds." + name)
+          << "': the prior's starting " << name << " = " << v << " lies outside it";
+        throw ConfigError(o.str());
+      }
+    }
 
-  e.policy.observation_dim = 6;
-  e.policy.hidden_units = static_cast<int>(integer("policy.hidden_units"));
-  e.policy.action_dim = 1;
-  e.policy.input_scale = VectorXd(6);
-  e.policy.input_scale << 10, 10, 1, 1, 1, 1;
-  e.policy.max_action = to.max_torque;
+    e.policy.observation_dim = 6;
+    e.policy.hidden_units = static_cast<int>(integer("policy.hidden_units"));
+    e.policy.action_dim = 1;
+    e.policy.input_scale = VectorXd(6);
+    e.policy.input_scale << 10, 10, 1, 1, 1, 1;
+    e.policy.max_action = to.max_torque;
+
+  } else {
+    hexapod_experiment(st, e);
+  }
 
   auto& a = e.algo;
   a.episodes = static_cast<int>(integer("episodes"));
   a.seed = e.seed;
-  a.theta_bound = dbl("policy.bound");
+  const bool hexapod = e.task == "hexapod";
+  a.theta_bound = str("policy.bound").empty() ? (hexapod ? 0.5 : 5.0) : dbl("policy.bound");
   a.model.type = model::parse_model_type(str("model.type"));
   a.model.rprop.max_iterations = static_cast<int>(integer("model.rprop.iterations"));
   a.model.rprop.tolerance = dbl("model.rprop.tolerance");
@@ -392,7 +481,9 @@ Experiment make_experiment(const Settings& st) {
   a.model.gp_mi.max_points = static_cast<int>(integer("model.gp_mi.max_points"));
   a.model.mi.max_evaluations = static_cast<int>(integer("model.mi.max_evaluations"));
   a.model.mi.xtol_rel = a.model.mi.ftol_rel = dbl("model.mi.tolerance");
-  a.cmaes.max_evaluations = integer("optimizer.max_evaluations");
+  a.cmaes.max_evaluations = str("optimizer.max_evaluations").empty()
+                                ? (hexapod ? 2000 : 10000)
+                                : integer("optimizer.max_evaluations");
   a.cmaes.max_restarts = static_cast<int>(integer("optimizer.restarts"));
   a.cmaes.lambda = static_cast<int>(integer("optimizer.lambda"));
   a.cmaes.sigma0 = dbl("optimizer.sigma0");

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <dart/dynamics/BodyNode.hpp>
 #include <dart/dynamics/DegreeOfFreedom.hpp>
 #include <dart/dynamics/FreeJoint.hpp>
@@ -357,6 +358,19 @@ double PriorSimulator::time() const {
 int PriorSimulator::substeps() const { return impl_->substeps; }
 const HexapodSpec& PriorSimulator::spec() const { return impl_->spec; }
 const PriorOptions& PriorSimulator::options() const { return impl_->options; }
+
+std::array<double, kNumLegs> PriorSimulator::foot_heights() const {
+  std::array<double, kNumLegs> h{};
+  for (int k = 0; k < kNumLegs; ++k) {
+    const auto* foot = impl_->spec.legs[static_cast<std::size_t>(k)].removed
+                           ? nullptr
+                           : impl_->robot->getShapeNode(foot_name(k));
+    h[static_cast<std::size_t>(k)] =
+        foot ? foot->getWorldTransform().translation().z() - impl_->spec.foot_radius
+             : std::numeric_limits<double>::quiet_NaN();
+  }
+  return h;
+}
 
 std::vector<std::string> PriorSimulator::body_names() const {
   std::vector<std::string> names;

@@ -24,6 +24,7 @@
 /// without leg k predicts for leg k's joints what a servo without load would do.
 
 #include <Eigen/Core>
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -151,6 +152,10 @@ class PriorSimulator {
   /// stays at its blocked angle with zero velocity whatever x says. Throws InvalidArgument when x
   /// has a wrong size or a non-finite entry.
   void set_state(const Eigen::VectorXd& x);
+  /// Height of each foot's lowest point above the ground plane z = 0, m, in leg order (NaN for a
+  /// removed leg), in the current state: about 0 (a few mm below with contact penetration) when
+  /// the foot touches the ground. For gait diagrams (drops plot). Thread-safety as the class.
+  std::array<double, kNumLegs> foot_heights() const;
   /// Simulated time since reset, s.
   double time() const;
   /// Physics steps per step().

@@ -207,3 +207,50 @@ TEST(Resume, RefusesWhatItCannotContinue) {
   EXPECT_NE(err.find("no checkpoint.json"), std::string::npos) << err;
   fs::remove_all(out);
 }
+
+#ifdef DROPS_WITH_HEXAPOD
+// The hexapod through `drops run`: its run directory (48-D states with named columns, foot heights,
+// walking speed and state-guard counts per episode), bit-identical results with 1 and 2 threads
+// (DART prior copies leased from a pool, GP-MI over the 7 priors, rollouts and CMA-ES), and resume.
+TEST(Resume, HexapodRunIsIdenticalWithOneAndTwoThreadsAndResumes) {
+  const fs::path out = fresh_dir("hexapod");
+  const std::string small =
+      "run task=hexapod seed=4 hexapod.horizon=10 optimizer.max_evaluations=80 "
+      "optimizer.restarts=0 optimizer.prior_optimizations=1 rollouts.predicted=2 "
+      "model.rprop.iterations=40 --output " + out.string();
+  ASSERT_EQ(run(small + " episodes=3 threads=1 --name one -q"), 0);
+  ASSERT_EQ(run(small + " episodes=3 threads=2 --name two -q"), 0);
+  expect_same_episodes(out / "one", out / "two", 3);
+
+  ASSERT_EQ(run(small + " episodes=2 threads=2 --name part -q"), 0);
+  ASSERT_EQ(run("run --resume " + (out / "part").string() + " episodes=3 -q"), 0);
+  expect_same_episodes(out / "one", out / "part", 3);
+
+  // What the run directory holds for the hexapod.
+  std::istringstream real(slurp(out / "one" / "episodes" / "002" / "real.csv"));
+  std::string header, line;
+  std::getline(real, header);
+  int rows = 0, columns = 1;
+  for (char c : header) columns += c == ',';
+  while (std::getline(real, line)) ++rows;
+  EXPECT_EQ(rows, 11);                           // x_0 .. x_H, H = 10
+  EXPECT_EQ(columns, 1 + 48 + 18 + 1 + 6);       // t, state, action, reward, foot heights
+  EXPECT_EQ(header.rfind("t,q_leg0_hip,q_leg0_femur,q_leg0_tibia,", 0), 0u) << header;
+  EXPECT_NE(header.find(",x,y,z,roll,pitch,yaw,vx,vy,vz,wx,wy,wz,u_leg0_hip,"), std::string::npos);
+  EXPECT_NE(header.find(",reward,foot0_height,"), std::string::npos);
+  const std::string table = slurp(out / "one" / "episodes.csv");
+  EXPECT_NE(table.find(",walking_speed_m_s,predicted_speed_m_s,guard_evaluations,guard_stopped,"
+                       "guard_clamped\n"),
+            std::string::npos)
+      << table;
+  const auto s = nlohmann::json::parse(slurp(out / "one" / "summary.json"));
+  EXPECT_EQ(s["task"], "hexapod");
+  EXPECT_EQ(s["prior"], "intact");
+  EXPECT_EQ(s["phi_names"], nlohmann::json::array({"removed_leg"}));
+  ASSERT_EQ(s["episodes"].size(), 3u);
+  for (const auto& e : s["episodes"]) {
+    EXPECT_TRUE(e["walking_speed_m_s"].is_number());
+    EXPECT_GT(e["guard_evaluations"].get<double>(), 0);  // every model step passes the guard
+  }
+}
+#endif

@@ -42,7 +42,25 @@ Settings load_settings(const std::string& yaml_text, const std::vector<std::stri
 /// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
 Settings load_settings_file(const std::string& path, const std::vector<std::string>& overrides);
 
-/// The experiment described by settings (only the pendubot task exists so far).
+/// The hexapod's settings (task "hexapod"), as plain values: drops::io does not depend on DART;
+/// the app builds the robot, the prior family and the task from them (apps/task_setup.cpp).
+/// Legs: -1 none / intact, 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, 4 mid-right,
+/// 5 rear-right (settings.md §6).
+struct HexapodSettings {
+  int horizon = 40;                  ///< control steps of 0.1 s per episode
+  int prior_start = -1;              ///< removed leg of the starting prior (-1: intact)
+  std::vector<int> prior_choices;    ///< GP-MI's discrete family (sorted, contains prior_start)
+  int removed_leg = -1;              ///< the real robot's removed leg
+  int shortened_leg = -1;            ///< the real robot's leg with a shortened tibia
+  double tibia_factor = 0.5;         ///< that tibia's length / intact length, (0, 1]
+  int blocked_leg = -1;              ///< the real robot's leg with a blocked joint
+  int blocked_joint = 1;             ///< 0 hip, 1 femur, 2 tibia
+  double blocked_angle = 0;          ///< rad
+  bool noise = true;                 ///< measurement noise on the real robot's state
+  bool guard_clamp = false;          ///< state guard: clamp (true) or stop (false)
+};
+
+/// The experiment described by settings.
 struct Experiment {
   std::string task = "pendubot";
   std::string prior_preset;
@@ -51,7 +69,11 @@ struct Experiment {
   std::string output = "runs";
   std::string name;
   pendubot::TaskOptions task_options;
-  pendubot::Params actual;              ///< the "real" system
+  pendubot::Params actual;              ///< the "real" pendubot
+  /// The real system's phi in the prior's parametrisation (pendubot: the 6 actual parameters;
+  /// hexapod: its removed leg, -1 when intact), for reports.
+  std::vector<double> phi_actual;
+  HexapodSettings hexapod;              ///< task "hexapod" only
   model::PriorParameters prior;         ///< starting phi, tunable set and bounds
   policy::NeuralNetPolicyOptions policy;
   algo::BlackDropsOptions algo;
