@@ -768,7 +768,15 @@ std::vector<fs::path> plot_run(const fs::path& run_dir, const std::string& episo
                   "drops plot");
   std::vector<fs::path> files = {out_dir / "returns.png"};
   if (!phi.empty()) files.push_back(out_dir / "phi.png");
-  for (int k : episodes) files.push_back(out_dir / fmt::format("trajectories-{:03d}.png", k));
+  // The hexapod adds speed.png, path-NNN.png and gait-NNN.png (python/drops_plot.py).
+  if (fs::exists(out_dir / "speed.png")) files.push_back(out_dir / "speed.png");
+  for (int k : episodes) {
+    files.push_back(out_dir / fmt::format("trajectories-{:03d}.png", k));
+    for (const char* extra : {"path", "gait"}) {
+      const fs::path f = out_dir / fmt::format("{}-{:03d}.png", extra, k);
+      if (fs::exists(f)) files.push_back(f);
+    }
+  }
   return files;
 }
 

@@ -292,15 +292,158 @@ def plot_trajectory(run_dir, summary, k, out):
     save(fig, os.path.join(out, f"trajectories-{k:03d}.png"))
 
 
+# ---- hexapod (task "hexapod"): walking speed, body path seen from above, gait diagram ----
+
+LEG_NAMES = ["0 rear-left", "1 mid-left", "2 front-left", "3 front-right", "4 mid-right",
+             "5 rear-right"]
+# A foot touches the ground when its lowest point is within this height of the ground plane (m);
+# contacts let it sink a few mm, and the state is sampled every 0.1 s.
+CONTACT_HEIGHT = 0.005
+
+
+def leg_label(phi):
+    v = number(phi)
+    if not math.isfinite(v):
+        return "?"
+    return "intact" if round(v) < 0 else f"leg {int(round(v))} removed"
+
+
+def plot_speed(summary, name, out):
+    eps = summary.get("episodes", [])
+    k = np.array([e["episode"] for e in eps])
+    real = np.array([number(e.get("walking_speed_m_s")) for e in eps])
+    pred = np.array([number(e.get("predicted_speed_m_s")) for e in eps])
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    ax.plot(k, real, "-o", color="#1f77b4", linewidth=2, markersize=5, label="real robot")
+    ax.plot(k, pred, "--s", color="#ff7f0e", linewidth=1.5, markersize=4,
+            label="predicted (model mean)")
+    ax.axhline(0.22, color="gray", linestyle=":", linewidth=1.2,
+               label="paper's physical robot, intact (0.22 m/s)")
+    ax.set_xlabel("episode")
+    ax.set_ylabel("walking speed (m/s)")
+    if len(k) <= 20:
+        ax.set_xticks(k)
+    ax.legend(loc="best", fontsize=9)
+    damage = summary.get("phi_actual", [None])
+    ax.set_title(f"{name}: walking speed per episode\n"
+                 f"real robot: {leg_label(damage[0] if damage else None)}; "
+                 f"{MODEL_NAMES.get(summary.get('model'), summary.get('model'))}", fontsize=11)
+    save(fig, os.path.join(out, "speed.png"))
+
+
+def plot_path(run_dir, summary, k, out):
+    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
+    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
+    pred_path = os.path.join(ep_dir, "predicted.csv")
+    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ax.plot(real["x"], real["y"], "-", color="#1f77b4", linewidth=2, label="real robot")
+    if pred is not None:
+        ax.plot(pred["x"], pred["y"], "--", color="#ff7f0e", linewidth=1.8,
+                label="predicted (model mean)")
+    # Heading every second: an arrow along the body's x axis (yaw).
+    step = max(1, int(round(1.0 / (real["t"][1] - real["t"][0])))) if len(real) > 1 else 1
+    idx = np.arange(0, len(real), step)
+    scale = 0.06
+    ax.quiver(real["x"][idx], real["y"][idx], scale * np.cos(real["yaw"][idx]),
+              scale * np.sin(real["yaw"][idx]), angles="xy", scale_units="xy", scale=1,
+              color="#1f77b4", width=0.005, headwidth=4, label="heading (every 1 s)")
+    ax.plot(real["x"][0], real["y"][0], "ko", markersize=6, label="start")
+    ax.axhline(0.5, color="red", linestyle=":", linewidth=1)
+    ax.axhline(-0.5, color="red", linestyle=":", linewidth=1, label="|y| = 0.5 m (penalty)")
+    ax.set_xlabel("x, forward (m)")
+    ax.set_ylabel("y, left (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="best", fontsize=9)
+    ep = next((e for e in summary.get("episodes", []) if e.get("episode") == k), {})
+    ax.set_title(f"{os.path.basename(os.path.normpath(run_dir))}: episode {k}, body path from "
+                 f"above\nspeed {number(ep.get('walking_speed_m_s')):.3f} m/s, model's prior "
+                 f"{leg_label((ep.get('phi') or [None])[0])}", fontsize=11)
+    save(fig, os.path.join(out, f"path-{k:03d}.png"))
+
+
+def plot_gait(run_dir, summary, k, out):
+    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
+    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
+    t = real["t"]
+    dt = t[1] - t[0] if len(t) > 1 else 0.1
+    fig, (ax, axh) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True,
+                                  gridspec_kw={"height_ratios": [1.2, 1]})
+    for leg in range(6):
+        col = f"foot{leg}_height"
+        if col not in real.dtype.names:
+            continue
+        h = real[col]
+        row = 5 - leg
+        if not np.all(np.isnan(h)):
+            on = h < CONTACT_HEIGHT
+            spans = [(t[i] - dt / 2, dt) for i in range(len(t)) if on[i]]
+            ax.broken_barh(spans, (row - 0.4, 0.8), facecolors="#333333")
+            axh.plot(t, h * 1000, linewidth=1.3, label=f"leg {LEG_NAMES[leg]}")
+        else:
+            ax.text(t[0], row, "  removed", va="center", color="gray", fontsize=9)
+    ax.set_yticks(range(6))
+    ax.set_yticklabels([f"leg {LEG_NAMES[5 - r]}" for r in range(6)])
+    ax.set_ylim(-0.6, 5.6)
+    ax.set_title(f"{os.path.basename(os.path.normpath(run_dir))}: episode {k}, gait diagram of the "
+                 f"real robot\n(black: foot on the ground, lowest point < {CONTACT_HEIGHT * 1000:.0f}"
+                 f" mm; sampled every {dt:.1f} s)", fontsize=11)
+    axh.axhline(CONTACT_HEIGHT * 1000, color="gray", linestyle=":", linewidth=1)
+    axh.set_ylabel("foot height (mm)")
+    axh.set_xlabel("time (s)")
+    axh.legend(loc="upper right", fontsize=7, ncol=3)
+    fig.tight_layout()
+    save(fig, os.path.join(out, f"gait-{k:03d}.png"))
+
+
+HEXAPOD_COLUMNS = [("x", "body x (m)"), ("y", "body y (m)"), ("z", "body height z (m)"),
+                   ("roll", "roll (rad)"), ("pitch", "pitch (rad)"), ("yaw", "yaw (rad)"),
+                   ("vx", "forward velocity (m/s)"), ("reward", "reward")]
+
+
+def plot_hexapod_trajectory(run_dir, summary, k, out):
+    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
+    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
+    pred_path = os.path.join(ep_dir, "predicted.csv")
+    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    fig, axes = plt.subplots(4, 2, figsize=(10, 9), sharex=True)
+    for j, (c, label) in enumerate(HEXAPOD_COLUMNS):
+        ax = axes[j // 2][j % 2]
+        ax.plot(real["t"], real[c], color="#1f77b4", linewidth=1.8, label="real")
+        if pred is not None:
+            ax.plot(pred["t"], pred[c], color="#ff7f0e", linestyle="--", linewidth=1.8,
+                    label="predicted (model mean)")
+        ax.set_ylabel(label)
+        if j >= 6:
+            ax.set_xlabel("time (s)")
+    h, l = axes[0][0].get_legend_handles_labels()
+    fig.legend(h, l, loc="lower center", ncol=2, frameon=False, bbox_to_anchor=(0.5, -0.01))
+    ep = next((e for e in summary.get("episodes", []) if e.get("episode") == k), {})
+    pr = ep.get("predicted_return")
+    fig.suptitle(f"{os.path.basename(os.path.normpath(run_dir))}: episode {k}, real return "
+                 f"{number(ep.get('real_return')):.2f}, "
+                 + (f"predicted {pr:.2f}" if pr is not None else "no prediction"), fontsize=12)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    save(fig, os.path.join(out, f"trajectories-{k:03d}.png"))
+
+
 def plot_run(run_dir, out, episodes, phi):
     with open(os.path.join(run_dir, "summary.json")) as f:
         summary = json.load(f)
     name = os.path.basename(os.path.normpath(run_dir))
+    hexapod = summary.get("task") == "hexapod"
     plot_returns(summary, name, out)
     if phi:
         plot_phi(summary, phi, out)
+    if hexapod:
+        plot_speed(summary, name, out)
     for k in episodes:
-        plot_trajectory(run_dir, summary, k, out)
+        if hexapod:
+            plot_hexapod_trajectory(run_dir, summary, k, out)
+            plot_path(run_dir, summary, k, out)
+            plot_gait(run_dir, summary, k, out)
+        else:
+            plot_trajectory(run_dir, summary, k, out)
 
 
 def main():

@@ -252,5 +252,12 @@ TEST(Resume, HexapodRunIsIdenticalWithOneAndTwoThreadsAndResumes) {
     EXPECT_TRUE(e["walking_speed_m_s"].is_number());
     EXPECT_GT(e["guard_evaluations"].get<double>(), 0);  // every model step passes the guard
   }
+
+  // drops plot on a hexapod run: the speed, the path from above and the gait diagram.
+  const fs::path plots = out / "plots";
+  ASSERT_EQ(run("plot " + (out / "one").string() + " --episodes 2 --output " + plots.string()), 0);
+  for (const char* f : {"returns.png", "phi.png", "speed.png", "trajectories-002.png",
+                        "path-002.png", "gait-002.png"})
+    EXPECT_GT(fs::exists(plots / f) ? fs::file_size(plots / f) : 0u, 10000u) << f;
 }
 #endif
