@@ -1,6 +1,8 @@
 // Dynamics-model variants: GP-MI and MI identify the pendubot's parameters (paper §IV-B).
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 
 #include "drops/core/errors.hpp"
@@ -60,6 +62,23 @@ TEST(LogSumExp, IsStableAndExact) {
   v << 1000, 0, -5;
   EXPECT_NEAR(model::log_sum_exp(v), 1000, 1e-12);
   EXPECT_TRUE(std::isinf(model::log_sum_exp(VectorXd())));
+}
+
+TEST(GpMi, SumOfLogLikelihoodsScoreAlsoIdentifiesM2AndReportsTheSum) {
+  const auto data = actual_data(2);
+  model::ModelOptions o;
+  o.gp_mi.score = model::GpMiScore::kSumOfLogLikelihoods;
+  auto m = pendubot_model(o, model::ModelType::kGpMi, tunable_prior("tunable"));
+  const auto s = m->learn(data);
+  EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
+  ASSERT_EQ(s.log_likelihoods.size(), 4);
+  EXPECT_DOUBLE_EQ(s.score, s.log_likelihoods.sum());  // the joint log likelihood, not log-sum-exp
+  VectorXd ll(3);
+  ll << -1, -std::numeric_limits<double>::infinity(), 2;
+  EXPECT_EQ(model::gp_mi_score(ll, model::GpMiScore::kSumOfLogLikelihoods),
+            -std::numeric_limits<double>::infinity());
+  EXPECT_NEAR(model::gp_mi_score(ll, model::GpMiScore::kSumOfLikelihoods),
+              std::log(std::exp(-1.0) + std::exp(2.0)), 1e-12);
 }
 
 TEST(GpMi, IdentifiesM2FromTwoEpisodesStartingFromTheTunablePrior) {

@@ -107,6 +107,9 @@ std::vector<KeySpec> build_schema() {
   add({"model.gp_mi.search", "enum", "alternating", 0, 0, {"alternating", "nested"}, "-",
        "nested: paper's Algorithm 2 (Rprop inside every Subplex evaluation); alternating: "
        "block-coordinate ascent on the same score (much faster)"});
+  add({"model.gp_mi.score", "enum", "sum_likelihoods", 0, 0, {"sum_likelihoods", "sum_log_likelihoods"},
+       "-", "GP-MI's score: log sum_i exp(loglik_i), the paper's sum of the likelihoods, or "
+       "sum_i loglik_i, the joint likelihood of the output GPs (every output counts; see docs/hexapod.md)"});
   add({"model.gp_mi.max_evaluations", "int", "1000", 1, 1000000, {}, "-",
        "Subplex evaluations per phi search"});
   add({"model.gp_mi.tolerance", "double", "1e-4", 0, 1, {}, "-",
@@ -475,6 +478,9 @@ Experiment make_experiment(const Settings& st) {
   a.model.gp_mi.search = str("model.gp_mi.search") == "nested" ? model::GpMiSearch::kNested
                                                               : model::GpMiSearch::kAlternating;
   a.model.gp_mi.max_evaluations = static_cast<int>(integer("model.gp_mi.max_evaluations"));
+  a.model.gp_mi.score = str("model.gp_mi.score") == "sum_log_likelihoods"
+                            ? model::GpMiScore::kSumOfLogLikelihoods
+                            : model::GpMiScore::kSumOfLikelihoods;
   a.model.gp_mi.xtol_rel = a.model.gp_mi.ftol_rel = dbl("model.gp_mi.tolerance");
   a.model.gp_mi.rounds = static_cast<int>(integer("model.gp_mi.rounds"));
   a.model.gp_mi.inner_rprop_iterations = static_cast<int>(integer("model.gp_mi.inner_rprop_iterations"));

@@ -262,7 +262,7 @@ class GpModel final : public DynamicsModel {
       throw NumericalError("the simulator prior returned non-finite values at phi = [" +
                            format_phi() + "] on the recorded data");
     s.log_likelihoods = fit_kernels(d.gp_in, targets, options_.rprop, &s.rprop_iterations);
-    s.score = log_sum_exp(s.log_likelihoods);
+    s.score = gp_mi_score(s.log_likelihoods, options_.gp_mi.score);
     s.phi = phi_;
     s.seconds = seconds_since(t0);
     return s;
@@ -354,7 +354,7 @@ class GpModel final : public DynamicsModel {
           g.set_targets(t.col(i));
           ll[i] = g.log_marginal_likelihood();
         }
-        const double sc = log_sum_exp(ll);
+        const double sc = gp_mi_score(ll, options_.gp_mi.score);
         if (progress && (evals % 50 == 0)) progress("gp-mi", s.phi_evaluations + evals, sc);
         return sc;
       };
@@ -405,7 +405,7 @@ class GpModel final : public DynamicsModel {
           ll[static_cast<Eigen::Index>(i)] = -kInf;
         }
       });
-      const double sc = log_sum_exp(ll);
+      const double sc = gp_mi_score(ll, options_.gp_mi.score);
       if (sc > best_score) {
         best_score = sc;
         for (int i = 0; i < E_; ++i)
@@ -547,6 +547,13 @@ std::string to_string(ModelType type) {
     case ModelType::kMi: return "mi";
   }
   return "?";
+}
+
+double gp_mi_score(const VectorXd& ll, GpMiScore score) {
+  if (score == GpMiScore::kSumOfLikelihoods) return log_sum_exp(ll);
+  if ((ll.array() == -std::numeric_limits<double>::infinity()).any())
+    return -std::numeric_limits<double>::infinity();
+  return ll.sum();
 }
 
 double log_sum_exp(const VectorXd& v) {

@@ -39,8 +39,20 @@ enum class GpMiSearch {
 };
 
 /// Options of GP-MI (settings.md §4).
+/// How GP-MI combines the E output GPs' log marginal likelihoods l_i into its score.
+enum class GpMiScore {
+  /// log sum_i exp(l_i): the paper's "sum of the likelihoods" (settings.md §4). Dominated by the
+  /// single best-fitting output, so with many outputs that every prior predicts alike (the
+  /// hexapod's 36 joint outputs) it can ignore the outputs that tell the priors apart.
+  kSumOfLikelihoods,
+  /// sum_i l_i: the joint log likelihood of the independent output GPs (the product of the
+  /// likelihoods), which every output informs.
+  kSumOfLogLikelihoods,
+};
+
 struct GpMiOptions {
   GpMiSearch search = GpMiSearch::kAlternating;
+  GpMiScore score = GpMiScore::kSumOfLikelihoods;  ///< how the per-output likelihoods combine
   int max_evaluations = 1000;   ///< Subplex evaluations per search (per discrete combination), >= 1
   double xtol_rel = 1e-4;       ///< Subplex relative tolerance on phi, >= 0
   double ftol_rel = 1e-4;       ///< Subplex relative tolerance on the score, >= 0
@@ -130,5 +142,9 @@ std::unique_ptr<DynamicsModel> make_prior_only_model(std::shared_ptr<const MeanF
 
 /// log sum_i exp(v_i), computed stably (max shift). Returns -inf for an empty or all -inf vector.
 double log_sum_exp(const VectorXd& v);
+
+/// GP-MI's score of per-output log likelihoods ll (dim E) under `score` (see GpMiScore); -inf
+/// when any entry is -inf under kSumOfLogLikelihoods. Thread-safe.
+double gp_mi_score(const VectorXd& ll, GpMiScore score);
 
 }  // namespace drops::model

@@ -1,0 +1,224 @@
+// Hexapod end-to-end costs as data grows (paper §V-B; 48-D state, 18-D action, 7 removed-leg
+// priors):
+//   BM_GpMiLearning/N         one GP-MI model learning (default ModelOptions) on N transitions
+//   BM_PolicyOptimization/N/T one policy optimization of 1000 CMA-ES evaluations (1 rollout each,
+//                             H = 40) on the model learned on N transitions, with T threads;
+//                             evals_per_s
+//   BM_ModelStep/N            one batched model prediction (8 lanes, one thread) on the model
+//                             learned on N transitions, at recorded (x, u): the cost of one step of
+//                             a full-length model rollout (per_lane_step), whatever the policy
+//   BM_GpMiLearningFast/N     GP-MI learning with a reduced budget (fast_options() below)
+//   BM_PriorOnlyPolicyOptimization
+//                             the same policy optimization on the prior alone (intact robot,
+//                             deterministic): Algorithm 1's first episode
+// Data: N = 40 transitions per episode of the intact "real" robot (HexapodRealSystem with its
+// default noise), episode 0 a tripod gait, the next ones uniform random theta in [-0.5, 0.5]^36
+// (fixed seeds). Threads: all hardware threads (2 on the reference machine) except where T says.
+// Run: bench_hexapod --benchmark_counters_tabular=true
+// Built only when the drops::hexapod target exists (bench/CMakeLists.txt).
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "drops/algo/black_drops.hpp"
+#include "drops/core/parallel.hpp"
+#include "drops/core/rng.hpp"
+#include "drops/model/dynamics_model.hpp"
+#include "drops/rollout/rollout.hpp"
+#include "hexapod/policy.hpp"
+#include "hexapod/prior.hpp"
+#include "hexapod/real_robot.hpp"
+#include "hexapod/task.hpp"
+
+using namespace drops;
+
+namespace {
+
+constexpr long kPolicyBudget = 1000;
+
+/// The first `transitions` transitions of real episodes (see the file comment), cached per size.
+const std::vector<Transition>& real_data(int transitions) {
+  static std::map<int, std::vector<Transition>> cache;
+  auto it = cache.find(transitions);
+  if (it != cache.end()) return it->second;
+  const hexapod::HexapodRealSystem real;
+  const hexapod::HexapodTask task;
+  hexapod::HexapodGaitPolicy policy;
+  std::vector<Transition> data;
+  for (int e = 0; static_cast<int>(data.size()) < transitions; ++e) {
+    Rng rng(derive_seed(42, {static_cast<std::uint64_t>(e)}));
+    VectorXd theta(36);
+    if (e == 0) {
+      VectorXd p(36);
+      for (int k = 0; k < hexapod::kNumLegs; ++k) {
+        const double phase = (k % 2 == 0) ? 0.0 : 0.5;
+        p.segment<6>(6 * k) << 1.0, phase, 0.5, 0.5, phase, 0.5;
+      }
+      theta = policy.theta_of(p);
+    } else {
+      for (int i = 0; i < 36; ++i) theta[i] = rng.uniform(-0.5, 0.5);
+    }
+    policy.set_params(theta);
+    for (auto& t : rollout::run_episode(task, real, policy, rng).transitions())
+      if (static_cast<int>(data.size()) < transitions) data.push_back(t);
+  }
+  return cache.emplace(transitions, std::move(data)).first->second;
+}
+
+std::unique_ptr<model::DynamicsModel> make_hexapod_model(const model::ModelOptions& o) {
+  return model::make_model(o, std::make_shared<hexapod::HexapodTask>(),
+                           std::make_shared<hexapod::HexapodPrior>(),
+                           hexapod::HexapodPrior::prior_parameters());
+}
+
+/// Models learned by BM_GpMiLearning (default options), reused by BM_PolicyOptimization.
+std::map<int, std::unique_ptr<model::DynamicsModel>>& learned_models() {
+  static std::map<int, std::unique_ptr<model::DynamicsModel>> models;
+  return models;
+}
+
+void report(benchmark::State& state, const model::ModelSummary& s) {
+  state.counters["phi"] = s.phi[0];
+  state.counters["rounds"] = s.rounds;
+  state.counters["phi_evals"] = s.phi_evaluations;
+  state.counters["rprop_its"] = static_cast<double>(s.rprop_iterations);
+  state.counters["score"] = s.score;
+}
+
+void BM_GpMiLearning(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const auto& data = real_data(n);
+  for (auto _ : state) {
+    auto m = make_hexapod_model({});
+    report(state, m->learn(data));
+    learned_models()[n] = std::move(m);
+  }
+}
+BENCHMARK(BM_GpMiLearning)
+    ->Arg(40)
+    ->Arg(120)
+    ->Arg(200)
+    ->Arg(400)
+    ->UseRealTime()
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
+
+void BM_PolicyOptimization(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const ThreadLimit limit(static_cast<int>(state.range(1)));
+  auto& model = learned_models()[n];
+  if (!model) {
+    model = make_hexapod_model({});
+    model->learn(real_data(n));
+  }
+  const hexapod::HexapodTask task;
+  const hexapod::HexapodGaitPolicy policy;
+  algo::BlackDropsOptions o;
+  o.theta_bound = hexapod::HexapodGaitPolicyOptions{}.theta_bound;
+  o.cmaes.max_evaluations = kPolicyBudget;
+  o.rollouts.rollouts = 1;
+  long evaluations = 0, nonfinite = 0;
+  for (auto _ : state) {
+    const auto s = algo::optimize_policy(task, *model, policy, VectorXd::Zero(36), o, 123, nullptr,
+                                         &nonfinite);
+    evaluations += s.evaluations;
+    state.counters["predicted_return"] = -s.best_value;
+  }
+  state.counters["evals"] = static_cast<double>(evaluations);
+  // Model rollouts stopped early by a non-finite (or guarded) prediction: they cost less.
+  state.counters["stopped"] = static_cast<double>(nonfinite);
+  state.counters["evals_per_s"] =
+      benchmark::Counter(static_cast<double>(evaluations), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_PolicyOptimization)
+    ->Args({40, 2})
+    ->Args({120, 2})
+    ->Args({200, 2})
+    ->Args({400, 2})
+    ->Args({40, 1})
+    ->UseRealTime()
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
+
+void BM_PriorOnlyPolicyOptimization(benchmark::State& state) {
+  const auto model = model::make_prior_only_model(std::make_shared<hexapod::HexapodPrior>(),
+                                                  hexapod::HexapodPrior::prior_parameters());
+  const hexapod::HexapodTask task;
+  const hexapod::HexapodGaitPolicy policy;
+  algo::BlackDropsOptions o;
+  o.theta_bound = hexapod::HexapodGaitPolicyOptions{}.theta_bound;
+  o.cmaes.max_evaluations = kPolicyBudget;
+  long evaluations = 0, nonfinite = 0;
+  for (auto _ : state) {
+    const auto s = algo::optimize_policy(task, *model, policy, VectorXd::Zero(36), o, 123, nullptr,
+                                         &nonfinite);
+    evaluations += s.evaluations;
+    state.counters["predicted_return"] = -s.best_value;
+  }
+  state.counters["evals"] = static_cast<double>(evaluations);
+  // Model rollouts stopped early by a non-finite (or guarded) prediction: they cost less.
+  state.counters["stopped"] = static_cast<double>(nonfinite);
+  state.counters["evals_per_s"] =
+      benchmark::Counter(static_cast<double>(evaluations), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_PriorOnlyPolicyOptimization)->UseRealTime()->Iterations(1)->Unit(benchmark::kSecond);
+
+void BM_ModelStep(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const auto& data = real_data(n);
+  auto& model = learned_models()[n];
+  if (!model) {
+    model = make_hexapod_model({});
+    model->learn(data);
+  }
+  constexpr int kLanes = 8;  // rollout::RolloutOptions::batch
+  MatrixXd x(kLanes, hexapod::kStateDim), u(kLanes, hexapod::kNumJoints), mean, var;
+  std::size_t next = 0;
+  long lane_steps = 0;
+  for (auto _ : state) {
+    for (int b = 0; b < kLanes; ++b, ++next) {
+      const Transition& t = data[next % data.size()];
+      x.row(b) = t.x.transpose();
+      u.row(b) = t.u.transpose();
+    }
+    model->predict_batch(x, u, mean, var);
+    lane_steps += kLanes;
+  }
+  // Seconds per lane and step (shown with a time unit, e.g. "650us").
+  state.counters["per_lane_step"] = benchmark::Counter(
+      static_cast<double>(lane_steps), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ModelStep)
+    ->Arg(40)
+    ->Arg(120)
+    ->Arg(200)
+    ->Arg(400)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+/// A reduced GP-MI budget: the phi search on at most 120 transitions with 20 inner Rprop
+/// iterations, and a final fit of 100 Rprop iterations (defaults: all data, 50, 300).
+model::ModelOptions fast_options() {
+  model::ModelOptions o;
+  o.gp_mi.max_points = 120;
+  o.gp_mi.inner_rprop_iterations = 20;
+  o.rprop.max_iterations = 100;
+  return o;
+}
+
+void BM_GpMiLearningFast(benchmark::State& state) {
+  const auto& data = real_data(static_cast<int>(state.range(0)));
+  for (auto _ : state) report(state, make_hexapod_model(fast_options())->learn(data));
+}
+BENCHMARK(BM_GpMiLearningFast)
+    ->Arg(200)
+    ->Arg(400)
+    ->UseRealTime()
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
