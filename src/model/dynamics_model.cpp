@@ -248,7 +248,12 @@ class GpModel final : public DynamicsModel {
     if (d.size() == 0) throw InvalidArgument("learn: no transitions");
 
     if (options_.type == ModelType::kGpMi && !params_.tunable.empty()) {
-      if (options_.gp_mi.search == GpMiSearch::kAlternating)
+      // A purely discrete phi is searched nested: with kernels fitted to one candidate's
+      // residuals (alternating search), every other candidate is scored against them and the
+      // search stays where it started (measured on the hexapod's 7 priors).
+      const bool all_discrete = std::all_of(params_.choices.begin(), params_.choices.end(),
+                                            [](const auto& c) { return !c.empty(); });
+      if (options_.gp_mi.search == GpMiSearch::kAlternating && !all_discrete)
         learn_alternating(d, s, progress);
       else
         learn_nested(d, s, progress);

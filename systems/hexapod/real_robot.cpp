@@ -27,7 +27,7 @@ PriorOptions real_simulator_defaults() {
   PriorOptions o;
   o.physics_dt = 0.001;
   o.control_dt = 0.1;
-  o.ground_friction = 0.7;
+  o.ground_friction = 0.4;
   o.actuation = Actuation::kServo;
   return o;
 }

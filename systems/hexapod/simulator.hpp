@@ -84,8 +84,8 @@ enum class Actuation {
 /// torque-speed line: no torque in the direction of motion at no_load_speed, so joints cannot be
 /// driven faster than it; DART also enforces the skeleton's +-max_velocity limit).
 struct ServoOptions {
-  double kp = 1.2;             ///< proportional gain, N m / rad, > 0
-  double kd = 0.03;            ///< derivative gain, N m s / rad, >= 0
+  double kp = 10.0;            ///< proportional gain, N m / rad, > 0
+  double kd = 0.1;             ///< derivative gain, N m s / rad, >= 0
   double stall_torque = 2.5;   ///< N m, in (0, spec.max_torque]
   double no_load_speed = 7.0;  ///< rad/s, > 0
   double viscous_friction =

@@ -35,6 +35,9 @@ enum class GpMiSearch {
   /// Block-coordinate ascent on the same score: Subplex over phi with the kernels fixed (each
   /// evaluation costs N simulator calls and E O(N^2) solves), then refit the kernels at the new
   /// phi, for up to `rounds` rounds or until phi stops moving. Much cheaper; same fixed points.
+  /// When every tunable parameter is discrete, GP-MI uses kNested instead: with the kernels fitted
+  /// to the starting candidate's residuals, the others are scored against them and the search
+  /// stays at its start (measured on the hexapod's 7 priors).
   kAlternating,
 };
 
