@@ -51,12 +51,7 @@ const std::vector<Transition>& real_data(int transitions) {
     Rng rng(derive_seed(42, {static_cast<std::uint64_t>(e)}));
     VectorXd theta(36);
     if (e == 0) {
-      VectorXd p(36);
-      for (int k = 0; k < hexapod::kNumLegs; ++k) {
-        const double phase = (k % 2 == 0) ? 0.0 : 0.5;
-        p.segment<6>(6 * k) << 1.0, phase, 0.5, 0.5, phase, 0.5;
-      }
-      theta = policy.theta_of(p);
+      theta = policy.theta_of(hexapod::tripod_gait());
     } else {
       for (int i = 0; i < 36; ++i) theta[i] = rng.uniform(-0.5, 0.5);
     }
@@ -105,14 +100,9 @@ BENCHMARK(BM_GpMiLearning)
     ->Iterations(1)
     ->Unit(benchmark::kSecond);
 
-void BM_PolicyOptimization(benchmark::State& state) {
-  const int n = static_cast<int>(state.range(0));
-  const ThreadLimit limit(static_cast<int>(state.range(1)));
-  auto& model = learned_models()[n];
-  if (!model) {
-    model = make_hexapod_model({});
-    model->learn(real_data(n));
-  }
+/// The timed policy optimization of both policy benchmarks: kPolicyBudget CMA-ES evaluations of
+/// one rollout each on `model`, from theta = 0, with fixed seeds.
+void optimize_on(benchmark::State& state, const model::DynamicsModel& model) {
   const hexapod::HexapodTask task;
   const hexapod::HexapodGaitPolicy policy;
   algo::BlackDropsOptions o;
@@ -121,7 +111,7 @@ void BM_PolicyOptimization(benchmark::State& state) {
   o.rollouts.rollouts = 1;
   long evaluations = 0, nonfinite = 0;
   for (auto _ : state) {
-    const auto s = algo::optimize_policy(task, *model, policy, VectorXd::Zero(36), o, 123, nullptr,
+    const auto s = algo::optimize_policy(task, model, policy, VectorXd::Zero(36), o, 123, nullptr,
                                          &nonfinite);
     evaluations += s.evaluations;
     state.counters["predicted_return"] = -s.best_value;
@@ -131,6 +121,17 @@ void BM_PolicyOptimization(benchmark::State& state) {
   state.counters["stopped"] = static_cast<double>(nonfinite);
   state.counters["evals_per_s"] =
       benchmark::Counter(static_cast<double>(evaluations), benchmark::Counter::kIsRate);
+}
+
+void BM_PolicyOptimization(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const ThreadLimit limit(static_cast<int>(state.range(1)));
+  auto& model = learned_models()[n];
+  if (!model) {
+    model = make_hexapod_model({});
+    model->learn(real_data(n));
+  }
+  optimize_on(state, *model);
 }
 BENCHMARK(BM_PolicyOptimization)
     ->Args({40, 2})
@@ -145,23 +146,7 @@ BENCHMARK(BM_PolicyOptimization)
 void BM_PriorOnlyPolicyOptimization(benchmark::State& state) {
   const auto model = model::make_prior_only_model(std::make_shared<hexapod::HexapodPrior>(),
                                                   hexapod::HexapodPrior::prior_parameters());
-  const hexapod::HexapodTask task;
-  const hexapod::HexapodGaitPolicy policy;
-  algo::BlackDropsOptions o;
-  o.theta_bound = hexapod::HexapodGaitPolicyOptions{}.theta_bound;
-  o.cmaes.max_evaluations = kPolicyBudget;
-  long evaluations = 0, nonfinite = 0;
-  for (auto _ : state) {
-    const auto s = algo::optimize_policy(task, *model, policy, VectorXd::Zero(36), o, 123, nullptr,
-                                         &nonfinite);
-    evaluations += s.evaluations;
-    state.counters["predicted_return"] = -s.best_value;
-  }
-  state.counters["evals"] = static_cast<double>(evaluations);
-  // Model rollouts stopped early by a non-finite (or guarded) prediction: they cost less.
-  state.counters["stopped"] = static_cast<double>(nonfinite);
-  state.counters["evals_per_s"] =
-      benchmark::Counter(static_cast<double>(evaluations), benchmark::Counter::kIsRate);
+  optimize_on(state, *model);
 }
 BENCHMARK(BM_PriorOnlyPolicyOptimization)->UseRealTime()->Iterations(1)->Unit(benchmark::kSecond);
 

@@ -183,6 +183,15 @@ def read_trajectory(path):
     return np.atleast_1d(data)
 
 
+def read_episode(run_dir, k):
+    """Real and predicted (None when absent, e.g. a random first policy) trajectories of episode k."""
+    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
+    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
+    pred_path = os.path.join(ep_dir, "predicted.csv")
+    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    return real, pred
+
+
 def plot_returns(summary, name, out):
     eps = summary.get("episodes", [])
     k = np.array([e["episode"] for e in eps])
@@ -252,10 +261,7 @@ def plot_phi(summary, names, out):
 
 
 def plot_trajectory(run_dir, summary, k, out):
-    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
-    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
-    pred_path = os.path.join(ep_dir, "predicted.csv")
-    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    real, pred = read_episode(run_dir, k)
     columns = [c for c in real.dtype.names if c != "t"]
     # States first, in the order angle, velocity; then action and reward.
     states = [c for c in columns if c not in ("u", "reward")]
@@ -332,10 +338,7 @@ def plot_speed(summary, name, out):
 
 
 def plot_path(run_dir, summary, k, out):
-    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
-    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
-    pred_path = os.path.join(ep_dir, "predicted.csv")
-    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    real, pred = read_episode(run_dir, k)
     fig, ax = plt.subplots(figsize=(7, 5))
     ax.plot(real["x"], real["y"], "-", color="#1f77b4", linewidth=2, label="real robot")
     if pred is not None:
@@ -402,10 +405,7 @@ HEXAPOD_COLUMNS = [("x", "body x (m)"), ("y", "body y (m)"), ("z", "body height 
 
 
 def plot_hexapod_trajectory(run_dir, summary, k, out):
-    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
-    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
-    pred_path = os.path.join(ep_dir, "predicted.csv")
-    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
+    real, pred = read_episode(run_dir, k)
     fig, axes = plt.subplots(4, 2, figsize=(10, 9), sharex=True)
     for j, (c, label) in enumerate(HEXAPOD_COLUMNS):
         ax = axes[j // 2][j % 2]

@@ -141,4 +141,13 @@ const Eigen::VectorXd& GaitController::signal(int leg, int which) const {
   return signals_[2 * leg + which];
 }
 
+Eigen::VectorXd tripod_gait(double lift_lag) {
+  Eigen::VectorXd theta(GaitController::kParamDim);
+  for (int k = 0; k < kNumLegs; ++k) {
+    const double phase = (k % 2 == 0) ? 0.0 : 0.5;
+    theta.segment<6>(6 * k) << 1.0, phase, 0.5, 0.5, std::fmod(phase + lift_lag, 1.0), 0.5;
+  }
+  return theta;
+}
+
 }  // namespace drops::hexapod

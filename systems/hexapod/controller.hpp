@@ -49,6 +49,15 @@ Eigen::VectorXd periodic_signal(double amplitude, double phase, double duty,
 
 /// The open-loop gait controller: the 12 signals are computed once by set_params; targets() is then
 /// a table look-up. Copyable; const methods are thread-safe.
+/// The tripod gait's parameters (dim 36, in [0, 1], order of the file comment): legs 0, 2, 4 in
+/// phase 0 and legs 1, 3, 5 in phase 0.5; duty 0.5; hip amplitude 1, femur/tibia amplitude 0.5.
+/// With lift_lag = 0 each foot is lifted (femur signal > 0) while its hip swings forward and pushes
+/// on the ground while the hip swings back, so by the sign conventions of robot.hpp the robot walks
+/// forward (+x: about 0.28 m/s in the prior, 0.24 m/s on HexapodRealSystem); lift_lag = 0.5 makes
+/// it walk backwards. lift_lag in [0, 1). A hand-made reference gait (ours, not the paper's) for
+/// tests, benchmarks and as a known walking start. Thread-safe.
+Eigen::VectorXd tripod_gait(double lift_lag = 0.0);
+
 class GaitController {
  public:
   /// Number of parameters (36).

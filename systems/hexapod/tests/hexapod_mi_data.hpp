@@ -2,6 +2,7 @@
 /// \file Shared by test_hexapod_mi.cpp and test_hexapod_mi_slow.cpp: episodes of the "real" hexapod
 /// with a leg removed, and GP-MI / MI models over the 7 removed-leg priors.
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -61,6 +62,11 @@ inline std::vector<Transition> real_data(const RealRobotOptions& options, int ep
 }
 
 /// A model of options.type on HexapodTask and a fresh HexapodPrior, over
+/// Wall-clock seconds since t0 (for the tests' [info] lines).
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 /// HexapodPrior::prior_parameters() with the starting removed_leg `phi0` (-1..5).
 inline std::unique_ptr<model::DynamicsModel> hexapod_model(const model::ModelOptions& options,
                                                            int phi0 = -1) {

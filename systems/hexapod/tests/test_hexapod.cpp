@@ -22,19 +22,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A tripod gait: legs 0, 2, 4 in phase 0 and legs 1, 3, 5 in phase 0.5; duty 0.5; hip amplitude 1,
-// femur/tibia amplitude 0.5. With lift_lag = 0 each foot is lifted (femur signal > 0) while its hip
-// swings forward (hip signal > 0) and pushes on the ground while the hip swings back, so by the
-// sign conventions of robot.hpp the robot walks forward (+x); lift_lag = 0.5 makes it walk
-// backwards.
-Eigen::VectorXd tripod_params(double lift_lag = 0.0) {
-  Eigen::VectorXd theta(36);
-  for (int k = 0; k < kNumLegs; ++k) {
-    const double phase = (k % 2 == 0) ? 0.0 : 0.5;
-    theta.segment<6>(6 * k) << 1.0, phase, 0.5, 0.5, std::fmod(phase + lift_lag, 1.0), 0.5;
-  }
-  return theta;
-}
+Eigen::VectorXd tripod_params(double lift_lag = 0.0) { return tripod_gait(lift_lag); }
 
 // Runs `steps` control steps of the gait theta from reset; returns the final state.
 Eigen::VectorXd walk(PriorSimulator& sim, const Eigen::VectorXd& theta, int steps) {

@@ -21,10 +21,7 @@ namespace {
 using testing::damaged;
 using testing::hexapod_model;
 using testing::real_data;
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
+using testing::seconds_since;
 
 // ---------------- identification without a reality gap ----------------
 

@@ -17,17 +17,14 @@ namespace {
 using testing::damaged;
 using testing::hexapod_model;
 using testing::real_data;
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
+using testing::seconds_since;
 
 class GpMiPicksTheRemovedLeg : public ::testing::TestWithParam<int> {};
 
 // The paper's damage is a rear leg (leg 0 or 5). Default options: a discrete phi is searched
-// nested (every prior scored with its own kernel fits; the alternating search stayed at its start,
-// its kernels fitted to the starting prior's residuals) and the servo model of real_robot.hpp (kp = 10 N m/rad, ground
-// friction 0.4; with kp = 1.2 every method picked the mirror leg, 0 for 5 and 5 for 0).
+// nested (every prior scored with its own kernel fits; the alternating search stayed at its
+// start, its kernels fitted to the starting prior's residuals). The servo model of real_robot.hpp
+// (kp = 10 N m/rad, ground friction 0.4): with kp = 1.2 every method picked the mirror leg.
 TEST_P(GpMiPicksTheRemovedLeg, FromTwoEpisodesOfTheServoRobot) {
   const int leg = GetParam();
   long nonfinite = 0;

@@ -21,15 +21,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// The tripod gait of test_hexapod.cpp: legs 0, 2, 4 in phase 0, legs 1, 3, 5 in phase 0.5.
-Eigen::VectorXd tripod_params() {
-  Eigen::VectorXd theta(36);
-  for (int k = 0; k < kNumLegs; ++k) {
-    const double phase = (k % 2 == 0) ? 0.0 : 0.5;
-    theta.segment<6>(6 * k) << 1.0, phase, 0.5, 0.5, phase, 0.5;
-  }
-  return theta;
-}
+Eigen::VectorXd tripod_params() { return tripod_gait(); }
 
 // Measured states x_0..x_H of one episode of the gait `p` (gait parameters in [0, 1]) on `real`.
 std::vector<Eigen::VectorXd> real_episode(const HexapodRealSystem& real, const Eigen::VectorXd& p,

@@ -12,14 +12,7 @@
 namespace drops::hexapod {
 namespace {
 
-Eigen::VectorXd tripod_params() {
-  Eigen::VectorXd theta(36);
-  for (int k = 0; k < kNumLegs; ++k) {
-    const double phase = (k % 2 == 0) ? 0.0 : 0.5;
-    theta.segment<6>(6 * k) << 1.0, phase, 0.5, 0.5, phase, 0.5;
-  }
-  return theta;
-}
+Eigen::VectorXd tripod_params() { return tripod_gait(); }
 
 TEST(HexapodRollout, RunEpisodeOfTheRealRobotWalksAndMatchesAManualSession) {
   const HexapodTask task;
