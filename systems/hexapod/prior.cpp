@@ -102,7 +102,7 @@ bool StateGuardOptions::IsValid(std::string* why) const {
   }
   const StateBounds& b = bounds;
   for (double v : {b.joint_angle_margin, b.max_joint_velocity, b.max_position,
-                   b.max_linear_velocity, b.max_angular_velocity}) {
+                   b.max_linear_velocity, b.max_angular_velocity, b.max_roll_pitch}) {
     if (!(std::isfinite(v) && v >= 0.0)) return fail("StateGuardOptions.bounds must be >= 0");
   }
   return true;
@@ -189,7 +189,6 @@ bool HexapodPrior::guard_state(const VectorXd& x, VectorXd* repaired, std::strin
     }
   }
   if (!ok && repaired != nullptr) {
-    constexpr double kPi = 3.14159265358979323846;
     VectorXd& r = *repaired;
     r = x;
     auto clip = [&](int i, double lo, double hi) { r[i] = std::clamp(r[i], lo, hi); };
@@ -200,7 +199,7 @@ bool HexapodPrior::guard_state(const VectorXd& x, VectorXd* repaired, std::strin
     }
     for (int i = 0; i < 3; ++i) {
       clip(kBodyPos + i, -g.bounds.max_position, g.bounds.max_position);
-      if (i < 2) clip(kBodyRpy + i, -kPi, kPi);
+      if (i < 2) clip(kBodyRpy + i, -g.bounds.max_roll_pitch, g.bounds.max_roll_pitch);
       clip(kBodyLinVel + i, -g.bounds.max_linear_velocity, g.bounds.max_linear_velocity);
       clip(kBodyAngVel + i, -g.bounds.max_angular_velocity, g.bounds.max_angular_velocity);
     }

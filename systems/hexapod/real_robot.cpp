@@ -3,7 +3,6 @@
 #include "hexapod/real_robot.hpp"
 
 #include <cmath>
-#include <numbers>
 #include <sstream>
 
 #include "drops/core/errors.hpp"
@@ -73,9 +72,6 @@ class RealEpisode final : public rollout::EpisodeSession {
       const double z = rng.normal();  // drawn even when s = 0: the stream does not depend on sigma
       measured[i] += s * z;
     }
-    // Motion capture reports roll in [-pi, pi]: a robot lying on its back (roll near pi) must not
-    // be measured at pi + noise, which is no orientation the prior's state check accepts.
-    measured[39] = std::remainder(measured[39], 2 * std::numbers::pi);
     return measured;
   }
 

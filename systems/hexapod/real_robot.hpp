@@ -50,7 +50,7 @@ struct MeasurementNoise {
 };
 
 /// The simulator options of the real robot (see the file comment): servo actuation, 1 ms physics
-/// step, ground friction 0.7, everything else as the prior.
+/// step, ground friction 0.4, everything else as the prior.
 PriorOptions real_simulator_defaults();
 
 /// Options of HexapodRealSystem.

@@ -89,7 +89,9 @@ bool check_state(const Eigen::VectorXd& x, const HexapodSpec& spec, std::string*
   for (int i = 0; i < 3; ++i) {
     if (std::abs(x[kBodyPos + i]) > bounds.max_position)
       return fail(kBodyPos + i, bounds.max_position);
-    if (i < 2 && std::abs(x[kBodyRpy + i]) > kPi) return fail(kBodyRpy + i, kPi);
+    if (i < 2 && std::abs(x[kBodyRpy + i]) > bounds.max_roll_pitch) {
+      return fail(kBodyRpy + i, bounds.max_roll_pitch);
+    }
     if (std::abs(x[kBodyLinVel + i]) > bounds.max_linear_velocity) {
       return fail(kBodyLinVel + i, bounds.max_linear_velocity);
     }
@@ -173,9 +175,16 @@ struct PriorSimulator::Impl {
   std::array<double, kNumJoints> free_q{};
   std::array<double, kNumJoints> free_dq{};
   long steps_done = 0;   // physics steps since reset
-  double yaw_ref = 0.0;  // yaw of the last state, for unwrapping
+  double roll_ref = 0.0;  // roll of the last state, for unwrapping
+  double yaw_ref = 0.0;   // yaw of the last state, for unwrapping
 
-  double current_yaw() const { return rotation_to_rpy(body->getWorldTransform().linear())[2]; }
+  // The body's roll, pitch, yaw with roll and yaw unwrapped near roll_ref and yaw_ref.
+  Eigen::Vector3d continuous_rpy() const {
+    Eigen::Vector3d rpy = rotation_to_rpy(body->getWorldTransform().linear());
+    rpy[0] = unwrap_near(rpy[0], roll_ref);
+    rpy[2] = unwrap_near(rpy[2], yaw_ref);
+    return rpy;
+  }
 };
 
 PriorSimulator::PriorSimulator(const HexapodSpec& spec, const PriorOptions& options)
@@ -245,6 +254,7 @@ void PriorSimulator::reset() {
     m.free_dq[i] = 0.0;
   }
   m.steps_done = 0;
+  m.roll_ref = 0.0;
   m.yaw_ref = 0.0;
 }
 
@@ -290,7 +300,9 @@ void PriorSimulator::step(const Eigen::VectorXd& q_target) {
     m.world->step();
     ++m.steps_done;
   }
-  m.yaw_ref = unwrap_near(m.current_yaw(), m.yaw_ref);
+  const Eigen::Vector3d rpy = m.continuous_rpy();
+  m.roll_ref = rpy[0];
+  m.yaw_ref = rpy[2];
 }
 
 void PriorSimulator::state(Eigen::Ref<Eigen::VectorXd> x) const {
@@ -307,9 +319,7 @@ void PriorSimulator::state(Eigen::Ref<Eigen::VectorXd> x) const {
   }
   const Eigen::Isometry3d& tf = m.body->getWorldTransform();
   x.segment<3>(kBodyPos) = tf.translation();
-  Eigen::Vector3d rpy = rotation_to_rpy(tf.linear());
-  rpy[2] = unwrap_near(rpy[2], m.yaw_ref);
-  x.segment<3>(kBodyRpy) = rpy;
+  x.segment<3>(kBodyRpy) = m.continuous_rpy();
   x.segment<3>(kBodyLinVel) = m.body->getLinearVelocity();
   x.segment<3>(kBodyAngVel) = m.body->getAngularVelocity();
 }
@@ -349,6 +359,7 @@ void PriorSimulator::set_state(const Eigen::VectorXd& x) {
   v.tail<3>() = tf.linear().transpose() * x.segment<3>(kBodyLinVel);
   m.root->setVelocities(v);
   m.robot->resetAccelerations();
+  m.roll_ref = rpy[0];
   m.yaw_ref = rpy[2];
 }
 

@@ -16,9 +16,13 @@
 /// must change smoothly and by small amounts over one 0.1 s step. A walking robot stays near
 /// upright, where roll and pitch are small and far from the pitch = +-pi/2 singularity, and yaw is
 /// the heading. A rotation vector would mix heading and tilt in all three entries and flip near a
-/// half turn; a quaternion would add a redundant dimension. Yaw is kept continuous (unwrapped):
-/// state() returns the yaw closest to that of the previous state (set_state/reset/step), so a
-/// robot turning past +-pi gives yaw beyond pi rather than a 2 pi jump in dx.
+/// half turn; a quaternion would add a redundant dimension. Roll and yaw are kept continuous
+/// (unwrapped): state() returns the roll and the yaw closest to those of the previous state
+/// (set_state/reset/step), so a robot turning past +-pi gives yaw beyond pi, and a robot rolling
+/// onto its back gives roll beyond pi, rather than a 2 pi jump in dx (which a GP cannot learn and
+/// which would put a model rollout outside any plausible state). Pitch stays in [-pi/2, pi/2]:
+/// a body pitched past vertical changes representation (roll and yaw jump by pi); a walking robot
+/// that does that has fallen over, which the reward already punishes.
 /// Joints of a removed leg keep their entries: they follow the same perfect velocity actuator law
 /// kinematically (no body attached), so the state dimension is 48 for all 7 priors and a prior
 /// without leg k predicts for leg k's joints what a servo without load would do.
@@ -58,9 +62,12 @@ struct StateBounds {
   double max_position = 1e3;          ///< |body x|, |body y|, |body z|, m
   double max_linear_velocity = 50;    ///< |v_i|, m/s
   double max_angular_velocity = 200;  ///< |w_i|, rad/s
+  /// |roll|, |pitch| <= max_roll_pitch, rad. Roll is continuous (file comment), so a robot that
+  /// rolled onto its back has |roll| near pi; a full turn is not plausible within an episode.
+  double max_roll_pitch = 2 * 3.14159265358979323846;
 };
 
-/// Checks that x has dim 48, is finite and inside `bounds` (roll and pitch within [-pi, pi]).
+/// Checks that x has dim 48, is finite and inside `bounds`.
 /// Returns false with the first offending entry (index, block name, value, bound) in *why when
 /// why is not null. Thread-safe.
 bool check_state(const Eigen::VectorXd& x, const HexapodSpec& spec, std::string* why = nullptr,

@@ -269,6 +269,34 @@ TEST(HexapodSimulator, SetStateOfStateIsIdentity) {
   EXPECT_THROW(sim.set_state(Eigen::VectorXd::Zero(47)), InvalidArgument);
 }
 
+TEST(HexapodSimulator, RollIsContinuousWhenTheBodyRollsPastPi) {
+  // The body high in the air, rolled to 3.0 rad (almost on its back) and spinning about its
+  // forward axis at 4 rad/s: after 0.1 s the roll is about 3.4 rad, not 3.4 - 2 pi; dx stays
+  // small, and the state is still plausible for check_state.
+  PriorSimulator sim;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(kStateDim);
+  x[kBodyPos + 2] = 0.8;
+  x[kBodyRpy] = 3.0;
+  x[kBodyAngVel] = 4.0;
+  sim.set_state(x);
+  sim.step(Eigen::VectorXd::Zero(kNumJoints));
+  const Eigen::VectorXd y = sim.state();
+  EXPECT_NEAR(y[kBodyRpy], 3.4, 0.05);
+  EXPECT_LT(std::abs(y[kBodyRpy] - x[kBodyRpy]), 0.5);
+  std::string why;
+  EXPECT_TRUE(check_state(y, sim.spec(), &why)) << why;
+  // set_state(state()) keeps the continuous roll; another step keeps going the same way.
+  sim.set_state(y);
+  EXPECT_NEAR(sim.state()[kBodyRpy], y[kBodyRpy], 1e-12);
+  sim.step(Eigen::VectorXd::Zero(kNumJoints));
+  EXPECT_GT(sim.state()[kBodyRpy], y[kBodyRpy] + 0.2);
+  // A roll beyond a full turn is implausible.
+  Eigen::VectorXd z = y;
+  z[kBodyRpy] = 7.0;
+  EXPECT_FALSE(check_state(z, sim.spec(), &why));
+  EXPECT_NE(why.find("x[39]"), std::string::npos) << why;
+}
+
 TEST(HexapodSimulator, TripodGaitWalksForwardUprightAndReversedLiftWalksBack) {
   PriorSimulator sim;
   const Eigen::VectorXd x = walk(sim, tripod_params(), 40);  // one 4 s episode
@@ -328,7 +356,7 @@ TEST(HexapodSimulator, StateGuardCatchesCorruptedStates) {
   bad[kBodyLinVel] = 1e6;
   EXPECT_FALSE(check_state(bad, spec, &why));
   bad = x;
-  bad[kBodyRpy + 1] = 4.0;
+  bad[kBodyRpy + 1] = 7.0;  // beyond a full turn
   EXPECT_FALSE(check_state(bad, spec, &why));
   EXPECT_FALSE(check_state(Eigen::VectorXd::Zero(47), spec, &why));
   EXPECT_NE(why.find("expected size 48"), std::string::npos) << why;
