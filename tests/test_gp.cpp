@@ -262,6 +262,72 @@ TEST(Gp, RpropOptionsAndStopping) {
   EXPECT_GE(s.final_log_likelihood, s.initial_log_likelihood);
 }
 
+// PILCO's soft walls (RpropOptions::penalty). Noise-free targets on 3 distinct inputs drive the
+// plain fit to sigma_n at its floor (signal-to-noise ratio ~1e5); with the walls the ratio stays
+// near max_snr (a soft wall: within 1.5x against 60 noise-free points) and the length scale near
+// [s / ratio, ratio s]. The reported likelihood is the plain
+// one, and the walls' value is reported separately.
+TEST(Gp, RpropSoftWallsBoundTheSignalToNoiseRatioAndLengthScales) {
+  MatrixXd X(60, 1);
+  for (int i = 0; i < 60; ++i) X(i, 0) = std::floor(i / 20);
+  VectorXd y(60);
+  for (int i = 0; i < 60; ++i) y[i] = X(i, 0);
+  const double s = std::sqrt((X.array() - X.mean()).square().sum() / 59.0);
+
+  Gp plain(1);
+  plain.compute(X, y);
+  const auto sp = plain.optimize_h_params();
+  const VectorXd hp = plain.h_params();
+  EXPECT_GT(std::exp(hp[1] - hp[2]), 1e4) << hp.transpose();  // interpolates exactly
+  EXPECT_EQ(sp.final_penalty, 0.0);
+
+  drops::gp::RpropOptions o;
+  o.penalty = true;
+  o.max_snr = 50.0;
+  o.max_length_scale_ratio = 2.0;
+  Gp walled(1);
+  walled.compute(X, y);
+  const auto sw = walled.optimize_h_params(o);
+  const VectorXd hw = walled.h_params();
+  EXPECT_LT(std::exp(hw[1] - hw[2]), 50.0 * 1.5) << hw.transpose();
+  EXPECT_GT(std::exp(hw[1] - hw[2]), 50.0 / 1.5) << hw.transpose();  // pushed against the wall
+  EXPECT_GT(std::exp(hw[0]), s / 2.0 / 1.5);
+  EXPECT_LT(std::exp(hw[0]), 2.0 * s * 1.5);
+  EXPECT_NEAR(sw.final_log_likelihood, walled.log_marginal_likelihood(), 1e-9);
+  EXPECT_LT(sw.final_log_likelihood, sp.final_log_likelihood);
+  // The walls' value: sum_d ((log l_d - log s_d) / log ratio)^30 + ((log sf - log sn) / log snr)^30.
+  const double expected = std::pow((hw[0] - std::log(s)) / std::log(2.0), 30) +
+                          std::pow((hw[1] - hw[2]) / std::log(50.0), 30);
+  EXPECT_NEAR(sw.final_penalty, expected, 1e-9 * (1.0 + expected));
+
+  // Inside the walls they change nothing that matters: a well-posed fit ends where the plain one
+  // does (the RpropRecoversLengthScales problem, l = (0.3, 3), sigma_f / sigma_n = 10).
+  Rng rng(20180521ULL);
+  const MatrixXd X2 = RandomMatrix(rng, 200, 2, -2.0, 2.0);
+  VectorXd h_true(4);
+  h_true << std::log(0.3), std::log(3.0), 0.0, 0.5 * std::log(0.01);
+  const Eigen::LLT<MatrixXd> chol(NaiveK(X2, h_true, true));
+  VectorXd z(200);
+  for (int i = 0; i < 200; ++i) z[i] = rng.normal();
+  const VectorXd y2 = chol.matrixL() * z;
+  Gp a(2), b(2);
+  a.compute(X2, y2);
+  b.compute(X2, y2);
+  a.optimize_h_params();
+  o = {};
+  o.penalty = true;
+  b.optimize_h_params(o);
+  EXPECT_LT((a.h_params() - b.h_params()).cwiseAbs().maxCoeff(), 1e-2)
+      << a.h_params().transpose() << " vs " << b.h_params().transpose();
+
+  o = {};
+  o.power = 3;
+  EXPECT_FALSE(o.IsValid(nullptr));
+  o = {};
+  o.max_snr = 1.0;
+  EXPECT_FALSE(o.IsValid(nullptr));
+}
+
 TEST(Gp, RpropOnDegenerateDataStaysInTheBox) {
   // Many duplicated inputs and noise-free targets: the likelihood keeps increasing as sigma_n -> 0 and
   // sigma_f grows; the search must stay finite, inside its box (noise std >= 1e-5, |log| <= 10), and

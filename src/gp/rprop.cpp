@@ -22,6 +22,58 @@ bool fail(std::string* why, const std::string& msg) {
   return false;
 }
 
+// PILCO's soft walls (RpropOptions::penalty): value and gradient with respect to h.
+class SoftWalls {
+ public:
+  SoftWalls(const RpropOptions& o, const Eigen::MatrixXd& X)
+      : enabled_(o.penalty), power_(o.power), log_ratio_(std::log(o.max_length_scale_ratio)),
+        log_snr_(std::log(o.max_snr)) {
+    if (!enabled_) return;
+    const Eigen::Index D = X.cols();
+    log_std_.resize(D);
+    active_.assign(static_cast<std::size_t>(D), false);
+    const double n = static_cast<double>(X.rows());
+    for (Eigen::Index d = 0; d < D; ++d) {
+      const double mean = X.col(d).mean();
+      const double var = n > 1 ? (X.col(d).array() - mean).square().sum() / (n - 1) : 0.0;
+      const double s = std::sqrt(var);
+      active_[static_cast<std::size_t>(d)] = s >= 1e-12;
+      log_std_[d] = active_[static_cast<std::size_t>(d)] ? std::log(s) : 0.0;
+    }
+  }
+  // Penalty at h (dim D + 2); adds its gradient to *grad (if not null).
+  double operator()(const Eigen::VectorXd& h, Eigen::VectorXd* grad) const {
+    if (!enabled_) return 0.0;
+    const Eigen::Index D = log_std_.size();
+    double value = 0.0;
+    auto wall = [&](double z, double scale, double* dz) {
+      const double zp = std::pow(z / scale, power_ - 1);
+      *dz = power_ * zp / scale;
+      return zp * z / scale;
+    };
+    double dz = 0.0;
+    for (Eigen::Index d = 0; d < D; ++d) {
+      if (!active_[static_cast<std::size_t>(d)]) continue;
+      value += wall(h[d] - log_std_[d], log_ratio_, &dz);
+      if (grad != nullptr) (*grad)[d] += dz;
+    }
+    value += wall(h[D] - h[D + 1], log_snr_, &dz);
+    if (grad != nullptr) {
+      (*grad)[D] += dz;
+      (*grad)[D + 1] -= dz;
+    }
+    return value;
+  }
+
+ private:
+  bool enabled_;
+  int power_;
+  double log_ratio_;
+  double log_snr_;
+  Eigen::VectorXd log_std_;
+  std::vector<bool> active_;
+};
+
 }  // namespace
 
 bool RpropOptions::IsValid(std::string* why) const {
@@ -58,6 +110,18 @@ bool RpropOptions::IsValid(std::string* why) const {
     os << "patience: expected >= 1, got " << patience;
     return fail(why, os.str());
   }
+  if (!(std::isfinite(max_length_scale_ratio) && max_length_scale_ratio > 1.0)) {
+    os << "max_length_scale_ratio: expected a finite value > 1, got " << max_length_scale_ratio;
+    return fail(why, os.str());
+  }
+  if (!(std::isfinite(max_snr) && max_snr > 1.0)) {
+    os << "max_snr: expected a finite value > 1, got " << max_snr;
+    return fail(why, os.str());
+  }
+  if (power < 2 || power % 2 != 0) {
+    os << "power: expected an even integer >= 2, got " << power;
+    return fail(why, os.str());
+  }
   if (why != nullptr) why->clear();
   return true;
 }
@@ -77,12 +141,21 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
   lo[P - 1] = kLogNoiseStdMin;
 
   RpropSummary summary;
+  // The objective f = log p(y | X, h) - walls(h), walls = 0 without options.penalty.
+  const SoftWalls walls(options, X_);
+  auto objective = [&](const Eigen::VectorXd& at, Eigen::VectorXd& grad) {
+    grad = log_marginal_likelihood_gradient();
+    Eigen::VectorXd wall_grad = Eigen::VectorXd::Zero(P);
+    const double value = log_marginal_likelihood() - walls(at, &wall_grad);
+    grad -= wall_grad;
+    return value;
+  };
   // Warm start: the current h is already factorised.
   Eigen::VectorXd h = h_params();
-  double f = log_marginal_likelihood();
-  Eigen::VectorXd g = log_marginal_likelihood_gradient();
+  Eigen::VectorXd g;
+  double f = objective(h, g);
   summary.iterations = 1;
-  summary.initial_log_likelihood = f;
+  summary.initial_log_likelihood = log_marginal_likelihood();
 
   Eigen::VectorXd best_h = h, best_g = g;
   double best_f = std::isfinite(f) && g.allFinite() ? f : -std::numeric_limits<double>::infinity();
@@ -117,8 +190,7 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
     bool ok = true;
     try {
       apply_h(h);
-      f = log_marginal_likelihood();
-      g = log_marginal_likelihood_gradient();
+      f = objective(h, g);
       ok = std::isfinite(f) && g.allFinite();
     } catch (const NumericalError&) {
       ok = false;
@@ -144,6 +216,7 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
 
   apply_h(best_h);  // keep the best iterate (it factorised before, so this succeeds)
   summary.final_log_likelihood = log_marginal_likelihood();
+  summary.final_penalty = walls(best_h, nullptr);
   return summary;
 }
 

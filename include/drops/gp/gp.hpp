@@ -21,6 +21,20 @@ struct RpropOptions {
   /// `patience` iterations (0 disables early stopping: run max_iterations).
   double tolerance = 0.0;
   int patience = 10;  ///< iterations over which `tolerance` is measured, >= 1
+  /// PILCO's soft walls on extreme hyper-parameters (Deisenroth 2010, gp/hypCurb.m; settings.md §3:
+  /// the reference used them for the no-prior variant). When enabled, Rprop maximises
+  ///   log p(y | X, h) - sum_d ((log l_d - log s_d) / log(max_length_scale_ratio))^power
+  ///                   - ((log sigma_f - log sigma_n) / log(max_snr))^power,
+  /// s_d being the standard deviation of input d in the training data (dimensions with s_d <
+  /// 1e-12 carry no information and are not penalised). With power 30 the walls are flat inside
+  /// l_d in [s_d / ratio, ratio s_d] and sigma_f / sigma_n in [1 / max_snr, max_snr] and steep
+  /// outside. They keep a GP on few points in many dimensions from interpolating noise (sigma_n
+  /// driven to its floor, signal-to-noise ratios of 1e5), which ruins its predictions away from
+  /// the data. Likelihoods reported (RpropSummary, log_marginal_likelihood) stay unpenalised.
+  bool penalty = false;
+  double max_length_scale_ratio = 100.0;  ///< > 1 (PILCO: 100)
+  double max_snr = 500.0;                 ///< > 1 (PILCO: 500)
+  int power = 30;                         ///< even, >= 2 (PILCO: 30)
   /// Returns true when every field is in range; otherwise false and, if why != nullptr, the reason.
   bool IsValid(std::string* why) const;
 };
@@ -30,6 +44,7 @@ struct RpropSummary {
   int iterations = 0;                 ///< gradient evaluations performed
   double initial_log_likelihood = 0;  ///< log p(y | X, h) at the warm start
   double final_log_likelihood = 0;    ///< at the best iterate (the one kept)
+  double final_penalty = 0;           ///< the soft walls' value there (0 without penalty)
   int cholesky_failures = 0;          ///< iterates rejected because K was not positive definite
 };
 
@@ -83,7 +98,8 @@ class Gp {
   /// Cost O(N^3) (K^-1 from the Cholesky factor) + O(N^2 D).
   Eigen::VectorXd log_marginal_likelihood_gradient() const;
 
-  /// Maximises the log marginal likelihood over h with iRprop- (Igel & Huesken 2000), starting from
+  /// Maximises the log marginal likelihood (minus options' soft walls, if enabled) over h with
+  /// iRprop- (Igel & Huesken 2000), starting from
   /// the current h (warm start); one analytic gradient per iteration. On return h is the best iterate
   /// seen and the GP is refactorised with it (alpha, predictions, likelihood all refer to it).
   /// Box: every iterate after the start is clamped to log l_d in [-10, 10], log sigma_f in [-10, 10],
