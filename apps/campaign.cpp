@@ -660,15 +660,20 @@ void check_run_config(const fs::path& run_dir, const CampaignRun& run, const fs:
                       ": its config.yaml cannot be compared with this campaign (" + e.what() +
                       "); use a new campaign name (key 'name') or another --output");
   }
+  // Compare what the runs do: an empty task-dependent default equals its value (run directories
+  // made before a default became task-dependent hold the value).
+  io::Settings wanted = run.settings;
+  io::resolve_derived_defaults(existing);
+  io::resolve_derived_defaults(wanted);
   std::string key;
-  if (!same_settings(existing, run.settings, kCampaignOwnedKeys, &key)) {
+  if (!same_settings(existing, wanted, kCampaignOwnedKeys, &key)) {
     const auto get = [&](const io::Settings& s) {
       const auto it = s.find(key);
       return it == s.end() ? std::string("(absent)") : it->second;
     };
     throw ConfigError("run " + run.name + " in " + campaign.string() +
                       " was made with different settings: key '" + key + "' is '" + get(existing) +
-                      "' there and '" + get(run.settings) +
+                      "' there and '" + get(wanted) +
                       "' in this campaign; use a new campaign name (key 'name') or another "
                       "--output");
   }

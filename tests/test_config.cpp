@@ -109,6 +109,32 @@ TEST(Config, HexapodBuildsTheSevenPriorFamilyAndTaskDefaults) {
       io::load_settings("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}));
   EXPECT_DOUBLE_EQ(x.algo.theta_bound, 0.25);
   EXPECT_EQ(x.algo.cmaes.max_evaluations, 300);
+  // PILCO's soft walls: on by default for the hexapod only, with its own length-scale ratio.
+  EXPECT_TRUE(e.algo.model.rprop.penalty);
+  EXPECT_DOUBLE_EQ(e.algo.model.rprop.max_length_scale_ratio, 10.0);
+  EXPECT_FALSE(p.algo.model.rprop.penalty);
+  const auto on = io::make_experiment(io::load_settings("", {"model.type=gp", "model.rprop.penalty=on"}));
+  EXPECT_TRUE(on.algo.model.rprop.penalty);
+  EXPECT_DOUBLE_EQ(on.algo.model.rprop.max_length_scale_ratio, 100.0);
+}
+
+// Settings written before a default became task-dependent hold the old value explicitly; once
+// resolved, both compare equal (the campaign relies on this to continue old campaigns).
+TEST(Config, ResolvedDerivedDefaultsEqualTheValuesOlderRunsWrote) {
+  io::Settings now = io::load_settings("", {});
+  io::Settings old = io::load_settings("", {"optimizer.max_evaluations=10000", "policy.bound=5"});
+  EXPECT_NE(now, old);
+  io::resolve_derived_defaults(now);
+  io::resolve_derived_defaults(old);
+  EXPECT_EQ(now.at("optimizer.max_evaluations"), "10000");
+  EXPECT_EQ(now.at("policy.bound"), "5");
+  EXPECT_EQ(now.at("model.rprop.max_length_scale_ratio"), "100");
+  EXPECT_EQ(now, old);
+  io::Settings hex = io::load_settings("task: hexapod\n", {"policy.bound=0.25"});
+  io::resolve_derived_defaults(hex);
+  EXPECT_EQ(hex.at("policy.bound"), "0.25");  // explicit values stay
+  EXPECT_EQ(hex.at("optimizer.max_evaluations"), "2000");
+  EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "10");
 }
 
 TEST(Config, HexapodDamageAndPriorChoices) {

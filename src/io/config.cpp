@@ -106,9 +106,9 @@ std::vector<KeySpec> build_schema() {
   add({"model.rprop.patience", "int", "10", 1, 100000, {}, "-", "window of the tolerance test"});
   add({"model.rprop.penalty", "enum", "auto", 0, 0, {"auto", "on", "off"}, "-",
        "PILCO's soft walls on extreme length scales and signal-to-noise ratios in the kernel fits "
-       "(auto = on for model.type gp, as the reference, and for every hexapod model, whose GPs on "
-       "40-400 points in 66 input dimensions otherwise interpolate noise; off for the pendubot's "
-       "prior-based models, as the reference); see docs/hexapod.md"});
+       "(auto = on for the hexapod, whose GPs on 40-400 points in 66 input dimensions otherwise "
+       "interpolate noise, and off for the pendubot; the reference used them for its no-prior "
+       "variant: model.type gp with penalty on); see docs/hexapod.md"});
   add({"model.rprop.max_length_scale_ratio", "double", "", 1.001, 1e6, {}, "-",
        "soft walls: length scale l_d within [s_d / ratio, ratio s_d], s_d the spread of input d "
        "(empty = 100, PILCO's value, for the pendubot; 10 for the hexapod, measured in docs/hexapod.md)"});
@@ -397,7 +397,23 @@ void hexapod_experiment(const Settings& st, Experiment& e) {
 }
 }  // namespace
 
-Experiment make_experiment(const Settings& st) {
+void resolve_derived_defaults(Settings& settings) {
+  const auto task = settings.find("task");
+  const bool hexapod = task != settings.end() && task->second == "hexapod";
+  const std::pair<const char*, const char*> derived[] = {
+      {"policy.bound", hexapod ? "0.5" : "5"},
+      {"optimizer.max_evaluations", hexapod ? "2000" : "10000"},
+      {"model.rprop.max_length_scale_ratio", hexapod ? "10" : "100"},
+  };
+  for (const auto& [key, value] : derived) {
+    const auto it = settings.find(key);
+    if (it != settings.end() && it->second.empty()) it->second = value;
+  }
+}
+
+Experiment make_experiment(const Settings& settings) {
+  Settings st = settings;
+  resolve_derived_defaults(st);
   auto str = [&](const std::string& k) { return st.at(k); };
   auto dbl = [&](const std::string& k) { return std::stod(st.at(k)); };
   auto integer = [&](const std::string& k) { return std::stoll(st.at(k)); };
@@ -480,16 +496,14 @@ Experiment make_experiment(const Settings& st) {
   a.episodes = static_cast<int>(integer("episodes"));
   a.seed = e.seed;
   const bool hexapod = e.task == "hexapod";
-  a.theta_bound = str("policy.bound").empty() ? (hexapod ? 0.5 : 5.0) : dbl("policy.bound");
+  a.theta_bound = dbl("policy.bound");
   a.model.type = model::parse_model_type(str("model.type"));
   a.model.rprop.max_iterations = static_cast<int>(integer("model.rprop.iterations"));
   a.model.rprop.tolerance = dbl("model.rprop.tolerance");
   a.model.rprop.patience = static_cast<int>(integer("model.rprop.patience"));
   const std::string penalty = str("model.rprop.penalty");
-  a.model.rprop.penalty = penalty == "on" || (penalty == "auto" && (hexapod || str("model.type") == "gp"));
-  a.model.rprop.max_length_scale_ratio = str("model.rprop.max_length_scale_ratio").empty()
-                                             ? (hexapod ? 10.0 : 100.0)
-                                             : dbl("model.rprop.max_length_scale_ratio");
+  a.model.rprop.penalty = penalty == "on" || (penalty == "auto" && hexapod);
+  a.model.rprop.max_length_scale_ratio = dbl("model.rprop.max_length_scale_ratio");
   a.model.rprop.max_snr = dbl("model.rprop.max_snr");
   a.model.gp_mi.search = str("model.gp_mi.search") == "nested" ? model::GpMiSearch::kNested
                                                               : model::GpMiSearch::kAlternating;
@@ -503,9 +517,7 @@ Experiment make_experiment(const Settings& st) {
   a.model.gp_mi.max_points = static_cast<int>(integer("model.gp_mi.max_points"));
   a.model.mi.max_evaluations = static_cast<int>(integer("model.mi.max_evaluations"));
   a.model.mi.xtol_rel = a.model.mi.ftol_rel = dbl("model.mi.tolerance");
-  a.cmaes.max_evaluations = str("optimizer.max_evaluations").empty()
-                                ? (hexapod ? 2000 : 10000)
-                                : integer("optimizer.max_evaluations");
+  a.cmaes.max_evaluations = integer("optimizer.max_evaluations");
   a.cmaes.max_restarts = static_cast<int>(integer("optimizer.restarts"));
   a.cmaes.lambda = static_cast<int>(integer("optimizer.lambda"));
   a.cmaes.sigma0 = dbl("optimizer.sigma0");

@@ -79,7 +79,13 @@ struct Experiment {
   algo::BlackDropsOptions algo;
 };
 
-/// Builds the experiment; throws ConfigError for combinations the schema cannot check alone
+/// Replaces the empty value of each key whose default depends on the task by that value
+/// (policy.bound 5 / 0.5, optimizer.max_evaluations 10000 / 2000,
+/// model.rprop.max_length_scale_ratio 100 / 10 for the pendubot / the hexapod), so settings
+/// written before a default became task-dependent compare equal to today's. Thread-safe.
+void resolve_derived_defaults(Settings& settings);
+
+/// Builds the experiment (after resolve_derived_defaults); throws ConfigError for combinations the schema cannot check alone
 /// (e.g. a tunable parameter whose bounds allow a singular prior).
 Experiment make_experiment(const Settings& settings);
 
