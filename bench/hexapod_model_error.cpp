@@ -91,11 +91,7 @@ int main(int argc, char** argv) {
     auto prior = std::make_shared<hx::HexapodPrior>(prior_options);
     prior->check_phi(VectorXd::Constant(1, leg));
     drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
-    fixed.values[0] = leg;
-    fixed.tunable.clear();
-    fixed.choices.clear();
-    fixed.lower.resize(0);
-    fixed.upper.resize(0);
+    fixed.values[0] = leg;  // gp_prior keeps the starting values
     drops::model::ModelOptions options;
     options.type = drops::model::ModelType::kGpPrior;
     options.rprop.tolerance = 1e-3;

@@ -85,8 +85,8 @@ struct Experiment {
 /// written before a default became task-dependent compare equal to today's. Thread-safe.
 void resolve_derived_defaults(Settings& settings);
 
-/// Builds the experiment (after resolve_derived_defaults); throws ConfigError for combinations the schema cannot check alone
-/// (e.g. a tunable parameter whose bounds allow a singular prior).
+/// Builds the experiment (after resolve_derived_defaults); throws ConfigError for combinations
+/// the schema cannot check alone (e.g. a tunable parameter whose bounds allow a singular prior).
 Experiment make_experiment(const Settings& settings);
 
 /// Settings as a nested YAML document (the resolved config written into each run directory).
