@@ -41,9 +41,11 @@ inline RealRobotOptions damaged(int removed_leg, RealRobotOptions base = {}) {
 /// Transitions (x_t, u_t, dx_t) of `episodes` episodes (H = 40 each, so 40 * episodes rows) of
 /// the real robot `options` running gentle_gait()s, through rollout::run_episode. Episode e uses
 /// the stream derive_seed(2024, {removed_leg + 1, e}) (the leg of options.spec) for the gait and
-/// the measurement noise. *nonfinite (if not null) counts episodes stopped early.
+/// the measurement noise (data_seed replaces 2024 for other data sets). *nonfinite (if not
+/// null) counts episodes stopped early.
 inline std::vector<Transition> real_data(const RealRobotOptions& options, int episodes,
-                                         long* nonfinite = nullptr) {
+                                         long* nonfinite = nullptr,
+                                         std::uint64_t data_seed = 2024) {
   int leg = -1;
   for (int k = 0; k < kNumLegs; ++k)
     if (options.spec.legs[static_cast<std::size_t>(k)].removed) leg = k;
@@ -53,7 +55,7 @@ inline std::vector<Transition> real_data(const RealRobotOptions& options, int ep
   std::vector<Transition> data;
   for (int e = 0; e < episodes; ++e) {
     Rng rng(
-        derive_seed(2024, {static_cast<std::uint64_t>(leg + 1), static_cast<std::uint64_t>(e)}));
+        derive_seed(data_seed, {static_cast<std::uint64_t>(leg + 1), static_cast<std::uint64_t>(e)}));
     policy.set_params(policy.theta_of(gentle_gait(rng)));
     const rollout::Trajectory tr = rollout::run_episode(task, real, policy, rng, nonfinite);
     for (auto& t : tr.transitions()) data.push_back(t);
@@ -61,12 +63,12 @@ inline std::vector<Transition> real_data(const RealRobotOptions& options, int ep
   return data;
 }
 
-/// A model of options.type on HexapodTask and a fresh HexapodPrior, over
 /// Wall-clock seconds since t0 (for the tests' [info] lines).
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// A model of options.type on HexapodTask and a fresh HexapodPrior, over
 /// HexapodPrior::prior_parameters() with the starting removed_leg `phi0` (-1..5).
 inline std::unique_ptr<model::DynamicsModel> hexapod_model(const model::ModelOptions& options,
                                                            int phi0 = -1) {

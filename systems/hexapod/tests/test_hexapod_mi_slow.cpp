@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -49,6 +50,31 @@ INSTANTIATE_TEST_SUITE_P(Hexapod, GpMiPicksTheRemovedLeg, ::testing::Values(0, 5
                            return i.param < 0 ? std::string("Intact")
                                               : "Leg" + std::to_string(i.param);
                          });
+
+// With the kernel fits `drops run` uses on the hexapod (PILCO's soft walls: length scales at most
+// 10 times each input's spread, signal-to-noise ratio at most 500), over four data sets of two
+// episodes each, rear leg 0 or 5 removed: measured 7 of 8 picked right (leg 5 on data set 2024
+// was called intact; docs/hexapod.md "Leg identification"). At most one miss is allowed.
+TEST(HexapodGpMi, PicksTheRemovedRearLegOnMostDataSetsWithTheSoftWallsOfTheHexapodRuns) {
+  model::ModelOptions o;
+  o.rprop.penalty = true;
+  o.rprop.max_length_scale_ratio = 10;
+  o.rprop.max_snr = 500;
+  int right = 0;
+  int cases = 0;
+  for (const std::uint64_t data_seed : {2024, 7, 8, 9}) {
+    for (const int leg : {0, 5}) {
+      const auto data = real_data(damaged(leg), 2, nullptr, data_seed);
+      const model::ModelSummary s = hexapod_model(o)->learn(data);
+      std::printf("[info] data set %llu, removed leg %d, soft walls: gp_mi picked %g (score %.2f)\n",
+                  static_cast<unsigned long long>(data_seed), leg, s.phi[0], s.score);
+      right += s.phi[0] == leg ? 1 : 0;
+      ++cases;
+    }
+  }
+  EXPECT_GE(right, cases - 1) << "GP-MI picked the removed rear leg in only " << right << " of "
+                              << cases << " data sets";
+}
 
 // DISABLED: the intact robot is identified as leg 0 removed today (scores 371.3 for leg 0 against
 // 365-366 for the best others in one measurement; the per-prior fits from scratch preferred leg 4):
