@@ -114,7 +114,9 @@ std::vector<std::string> extra_grid_axes(const fs::path& campaign_yaml) {
   std::vector<std::string> all;
   collect_axes(grid, "", all);
   for (const auto& a : all)
-    if (a != "seed" && a != "model.type" && a != "prior.preset") axes.push_back(a);
+    if (a != "seed" && a != "model.type" && a != "prior.preset" &&
+        a.rfind("hexapod.damage.", 0) != 0)
+      axes.push_back(a);
   return axes;
 }
 
@@ -165,10 +167,10 @@ std::string csv_field(const std::string& s) {
 }
 
 // Markdown numbers: 2 decimals; +∞ (a median first solve) reads "not solved".
-std::string md(double x) {
+std::string md(double x, int decimals = 2) {
   if (std::isinf(x) && x > 0) return "not solved";
   if (std::isnan(x)) return "–";
-  return fmt::format("{:.2f}", x);
+  return fmt::format("{:.{}f}", x, decimals);
 }
 
 std::string md_rate(double rate, int count, int runs) {
@@ -258,6 +260,22 @@ double quantile(std::vector<double> values, double p) {
 
 // ---------- one run ----------
 
+namespace {
+
+// The hexapod's panel: the "real" robot's damage from config.yaml (RunResult::prior).
+std::string hexapod_damage_label(const YAML::Node& config) {
+  std::vector<std::string> parts;
+  for (const auto& [key, word] : {std::pair{"hexapod.damage.removed_leg", "removed"},
+                                  std::pair{"hexapod.damage.shortened_leg", "shortened"},
+                                  std::pair{"hexapod.damage.blocked_leg", "blocked"}}) {
+    const YAML::Node n = find_key(config, key);
+    if (n && n.IsScalar() && n.Scalar() != "none") parts.push_back(n.Scalar() + " " + word);
+  }
+  return parts.empty() ? "intact" : join(parts, ", ");
+}
+
+}  // namespace
+
 RunResult read_run(const fs::path& dir, const std::vector<std::string>& extra_axes) {
   if (!fs::is_directory(dir)) throw Error(dir.string() + " is not a directory");
   RunResult run;
@@ -276,8 +294,12 @@ RunResult read_run(const fs::path& dir, const std::vector<std::string>& extra_ax
   if (config) {
     if (const YAML::Node n = find_key(config, "model.type"); n && n.IsScalar())
       run.model_type = n.Scalar();
-    if (const YAML::Node n = find_key(config, "prior.preset"); n && n.IsScalar())
+    if (const YAML::Node n = find_key(config, "task"); n && n.IsScalar()) run.task = n.Scalar();
+    if (run.task == "hexapod") {
+      run.prior = hexapod_damage_label(config);
+    } else if (const YAML::Node n = find_key(config, "prior.preset"); n && n.IsScalar()) {
       run.prior = n.Scalar();
+    }
     if (const YAML::Node n = find_key(config, "seed"); n && n.IsScalar()) {
       try {
         run.seed = n.as<std::int64_t>();
@@ -297,6 +319,7 @@ RunResult read_run(const fs::path& dir, const std::vector<std::string>& extra_ax
       run.status = s.value("status", std::string("running"));
       run.error = s.value("error", std::string());
       if (run.model_type.empty()) run.model_type = s.value("model", std::string());
+      if (run.task.empty()) run.task = s.value("task", std::string());
       if (run.prior.empty()) run.prior = s.value("prior", std::string());
       if (run.seed < 0 && s.contains("seed") && s["seed"].is_number_integer())
         run.seed = s["seed"].get<std::int64_t>();
@@ -313,6 +336,7 @@ RunResult read_run(const fs::path& dir, const std::vector<std::string>& extra_ax
         ep.predicted_return = number_or_nan(e, "predicted_return");
         ep.solved = e.value("solved", false);
         ep.random_policy = e.value("random_policy", false);
+        ep.walking_speed_m_s = number_or_nan(e, "walking_speed_m_s");
         if (e.contains("phi"))
           for (const auto& v : e["phi"]) ep.phi.push_back(v.is_number() ? v.get<double>() : kNaN);
         run.episodes.push_back(std::move(ep));
@@ -358,6 +382,7 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
       GroupReport g;
       g.variant = run.variant;
       g.model_type = run.model_type;
+      g.task = run.task;
       g.prior = run.prior;
       groups.push_back(std::move(g));
       members.emplace_back();
@@ -375,7 +400,7 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     const auto& rs = members[gi];
     g.runs = static_cast<int>(rs.size());
     if (rs.empty()) continue;
-    std::vector<double> first_episode, first_time, final_return;
+    std::vector<double> first_episode, first_time, final_return, final_speed;
     int max_episode = 0;
     for (const RunResult* r : rs) {
       g.run_names.push_back(r->name);
@@ -392,6 +417,8 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
         if (r->episodes.back().solved) ++g.solved_last_runs;
         if (std::isfinite(r->episodes.back().real_return))
           final_return.push_back(r->episodes.back().real_return);
+        if (std::isfinite(r->episodes.back().walking_speed_m_s))
+          final_speed.push_back(r->episodes.back().walking_speed_m_s);
         max_episode = std::max(max_episode, r->episodes.back().episode);
       }
       first_episode.push_back(r->first_solved_episode ? *r->first_solved_episode : kInf);
@@ -407,19 +434,23 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     std::erase_if(first_time, [](double t) { return std::isnan(t); });
     g.median_first_solve_time_s = first_time.empty() ? kNaN : quantile(first_time, 0.5);
     if (!final_return.empty()) g.median_final_return = quantile(final_return, 0.5);
+    if (!final_speed.empty()) g.median_final_speed_m_s = quantile(final_speed, 0.5);
 
     const std::size_t nphi = g.phi_names.size();
     for (int k = 1; k <= max_episode; ++k) {
       EpisodeStats st;
       st.episode = k;
-      std::vector<double> returns, times;
+      std::vector<double> returns, times, speeds;
       std::vector<std::vector<double>> phis(nphi);
+      std::map<double, int> phi_counts;
       for (const RunResult* r : rs) {
         const auto it = std::find_if(r->episodes.begin(), r->episodes.end(),
                                      [k](const EpisodeResult& e) { return e.episode == k; });
         if (it == r->episodes.end()) continue;
         if (std::isfinite(it->real_return)) returns.push_back(it->real_return);
         if (std::isfinite(it->interaction_time_s)) times.push_back(it->interaction_time_s);
+        if (std::isfinite(it->walking_speed_m_s)) speeds.push_back(it->walking_speed_m_s);
+        if (!it->phi.empty() && !std::isnan(it->phi[0])) ++phi_counts[it->phi[0]];
         if (it->phi.size() == nphi)
           for (std::size_t i = 0; i < nphi; ++i)
             if (!std::isnan(it->phi[i])) phis[i].push_back(it->phi[i]);
@@ -431,6 +462,13 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
       st.q25 = returns.empty() ? kNaN : quantile(returns, 0.25);
       st.q75 = returns.empty() ? kNaN : quantile(returns, 0.75);
       for (const auto& v : phis) st.phi_median.push_back(v.empty() ? kNaN : quantile(v, 0.5));
+      st.phi_counts.assign(phi_counts.begin(), phi_counts.end());
+      st.speed_runs = static_cast<int>(speeds.size());
+      if (!speeds.empty()) {
+        st.speed_median = quantile(speeds, 0.5);
+        st.speed_q25 = quantile(speeds, 0.25);
+        st.speed_q75 = quantile(speeds, 0.75);
+      }
       g.episodes.push_back(std::move(st));
     }
   }
@@ -473,13 +511,13 @@ void write_summary_csv(const CampaignReport& report, const fs::path& path) {
   std::string t =
       "variant,prior,runs,complete,running,interrupted,failed,not_started,solved_runs,"
       "success_rate,solved_last_rate,median_first_solve_episode,median_first_solve_time_s,"
-      "median_final_return\n";
+      "median_final_return,median_final_speed_m_s\n";
   for (const auto& g : report.groups)
-    t += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
+    t += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
                      csv_field(g.prior), g.runs, g.complete, g.running, g.interrupted, g.failed,
                      g.not_started, g.solved_runs, num(g.success_rate), num(g.solved_last_rate),
                      num(g.median_first_solve_episode), num(g.median_first_solve_time_s),
-                     num(g.median_final_return));
+                     num(g.median_final_return), num(g.median_final_speed_m_s));
   write_file_atomically(path, t);
 }
 
@@ -493,6 +531,18 @@ void write_returns_csv(const CampaignReport& report, const fs::path& path) {
   write_file_atomically(path, t);
 }
 
+void write_speed_csv(const CampaignReport& report, const fs::path& path) {
+  std::string t = "variant,prior,episode,interaction_time_s,runs,median,q25,q75\n";
+  for (const auto& g : report.groups) {
+    if (!g.has_speed()) continue;
+    for (const auto& e : g.episodes)
+      t += fmt::format("{},{},{},{},{},{},{},{}\n", csv_field(g.variant), csv_field(g.prior),
+                       e.episode, num(e.interaction_time_s), e.speed_runs, num(e.speed_median),
+                       num(e.speed_q25), num(e.speed_q75));
+  }
+  write_file_atomically(path, t);
+}
+
 void write_phi_csv(const CampaignReport& report, const fs::path& path) {
   std::string t = "variant,prior,episode,parameter,median,actual\n";
   for (const auto& g : report.groups)
@@ -503,6 +553,114 @@ void write_phi_csv(const CampaignReport& report, const fs::path& path) {
                          num(i < g.phi_actual.size() ? g.phi_actual[i] : kNaN));
   write_file_atomically(path, t);
 }
+
+namespace {
+
+// The hexapod's prior φ = removed leg (-1 = intact).
+std::string hexapod_prior_name(double removed_leg) {
+  return removed_leg < 0 ? std::string("intact") : fmt::format("leg{:g}", removed_leg);
+}
+
+bool identifies_discrete_prior(const GroupReport& g) {
+  return g.task == "hexapod" && g.model_type != "gp" && !g.episodes.empty();
+}
+
+std::string panel_title(const GroupReport& g) {
+  return g.task == "hexapod" ? "Real robot " + g.prior : "Prior " + prior_label(g.prior);
+}
+
+// One Markdown table per panel (prior, or the hexapod's damage) of the groups `keep` accepts:
+// a row per episode, a column per variant, the cell cell(group, stats at k).
+template <class Keep, class Cell>
+std::string episode_cells(const CampaignReport& report, Keep keep, Cell cell) {
+  std::string t;
+  std::vector<std::string> priors;
+  for (const auto& g : report.groups)
+    if (std::find(priors.begin(), priors.end(), g.prior) == priors.end()) priors.push_back(g.prior);
+  for (const auto& prior : priors) {
+    std::vector<const GroupReport*> gs;
+    int max_k = 0;
+    for (const auto& g : report.groups)
+      if (g.prior == prior && !g.episodes.empty() && keep(g)) {
+        gs.push_back(&g);
+        max_k = std::max(max_k, g.episodes.back().episode);
+      }
+    if (gs.empty()) continue;
+    t += fmt::format("\n### {}\n\n| episode |", panel_title(*gs.front()));
+    for (const auto* g : gs) t += " " + g->variant + " |";
+    t += "\n|---:|";
+    for (std::size_t i = 0; i < gs.size(); ++i) t += "---|";
+    t += "\n";
+    for (int k = 1; k <= max_k; ++k) {
+      t += fmt::format("| {} |", k);
+      for (const auto* g : gs) {
+        const auto it = std::find_if(g->episodes.begin(), g->episodes.end(),
+                                     [k](const EpisodeStats& e) { return e.episode == k; });
+        t += ' ';
+        t += it == g->episodes.end() ? std::string("–") : cell(*g, *it);
+        t += " |";
+      }
+      t += "\n";
+    }
+  }
+  return t;
+}
+
+// Median [q25, q75] tables per panel of the quantity get(stats) = (runs, median, q25, q75), with
+// `decimals` decimals and one interaction-time column when every group agrees on it.
+template <class Keep, class Get>
+std::string episode_tables(const CampaignReport& report, Keep keep, Get get, int decimals) {
+  std::string t;
+  std::vector<std::string> priors;
+  for (const auto& g : report.groups)
+    if (std::find(priors.begin(), priors.end(), g.prior) == priors.end()) priors.push_back(g.prior);
+  for (const auto& prior : priors) {
+    std::vector<const GroupReport*> gs;
+    int max_k = 0;
+    for (const auto& g : report.groups)
+      if (g.prior == prior && !g.episodes.empty() && keep(g)) {
+        gs.push_back(&g);
+        max_k = std::max(max_k, g.episodes.back().episode);
+      }
+    if (gs.empty()) continue;
+    // One time column when every group agrees on the interaction time of each episode.
+    std::map<int, std::set<double>> times;
+    for (const auto* g : gs)
+      for (const auto& e : g->episodes) times[e.episode].insert(e.interaction_time_s);
+    bool same_time = true;
+    for (const auto& [k, s] : times) same_time = same_time && s.size() == 1;
+
+    t += fmt::format("\n### {}\n\n| episode |{}", panel_title(*gs.front()),
+                     same_time ? " interaction time (s) |" : "");
+    for (const auto* g : gs) t += " " + g->variant + " |";
+    t += "\n|---:|" + std::string(same_time ? "---:|" : "");
+    for (std::size_t i = 0; i < gs.size(); ++i) t += "---|";
+    t += "\n";
+    for (int k = 1; k <= max_k; ++k) {
+      if (!times.count(k)) continue;
+      t += fmt::format("| {} |", k);
+      if (same_time) t += " " + md(*times[k].begin()) + " |";
+      for (const auto* g : gs) {
+        const auto it = std::find_if(g->episodes.begin(), g->episodes.end(),
+                                     [k](const EpisodeStats& e) { return e.episode == k; });
+        if (it == g->episodes.end() || std::get<0>(get(*it)) == 0) {
+          t += " – |";
+          continue;
+        }
+        const auto [runs, median, q25, q75] = get(*it);
+        t += fmt::format(" {} [{}, {}]", md(median, decimals), md(q25, decimals),
+                         md(q75, decimals));
+        if (!same_time) t += fmt::format(" at {} s", md(it->interaction_time_s));
+        if (runs < g->runs) t += fmt::format(" ({} run{})", runs, runs == 1 ? "" : "s");
+        t += " |";
+      }
+      t += "\n";
+    }
+  }
+  return t;
+}
+
+}  // namespace
 
 void write_report_markdown(const CampaignReport& report, const fs::path& path) {
   std::map<std::string, int> counts;
@@ -525,18 +683,32 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
     t += fmt::format("Variants are split by the campaign grid axes {}.\n",
                      join(report.extra_axes, ", "));
 
-  t += "\n## Summary\n\n"
-       "| variant | prior | runs | complete | solved at least once | solved at last episode | "
-       "median first solve (episode) | median first solve (s) | median final return |\n"
-       "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+  const bool all_hexapod =
+      !report.groups.empty() &&
+      std::all_of(report.groups.begin(), report.groups.end(),
+                  [](const GroupReport& g) { return g.task == "hexapod"; });
+  const std::string panel = all_hexapod ? "real robot" : "prior";
+  const bool any_speed = std::any_of(report.groups.begin(), report.groups.end(),
+                                     [](const GroupReport& g) { return g.has_speed(); });
+  // The hexapod has no success criterion: its summary shows the final return and speed.
+  t += "\n## Summary\n\n| variant | " + panel + " | runs | complete |" +
+       std::string(all_hexapod ? ""
+                               : " solved at least once | solved at last episode | median first "
+                                 "solve (episode) | median first solve (s) |") +
+       " median final return |" + (any_speed ? " median final speed (m/s) |" : "") +
+       "\n|---|---|---:|---:|" + (all_hexapod ? "" : "---:|---:|---:|---:|") + "---:|" +
+       (any_speed ? "---:|" : "") + "\n";
   std::vector<std::string> models;
   for (const auto& g : report.groups) {
-    t += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", g.variant,
-                     prior_label(g.prior), g.runs, g.complete,
-                     md_rate(g.success_rate, g.solved_runs, g.runs),
-                     md_rate(g.solved_last_rate, g.solved_last_runs, g.runs),
-                     g.runs ? md(g.median_first_solve_episode) : "–",
-                     g.runs ? md(g.median_first_solve_time_s) : "–", md(g.median_final_return));
+    t += fmt::format("| {} | {} | {} | {} |", g.variant, prior_label(g.prior), g.runs, g.complete);
+    if (!all_hexapod)
+      t += fmt::format(" {} | {} | {} | {} |", md_rate(g.success_rate, g.solved_runs, g.runs),
+                       md_rate(g.solved_last_rate, g.solved_last_runs, g.runs),
+                       g.runs ? md(g.median_first_solve_episode) : "–",
+                       g.runs ? md(g.median_first_solve_time_s) : "–");
+    t += " " + md(g.median_final_return) + " |";
+    if (any_speed) t += " " + md(g.median_final_speed_m_s, 3) + " |";
+    t += "\n";
     if (std::find(models.begin(), models.end(), g.model_type) == models.end())
       models.push_back(g.model_type);
   }
@@ -546,53 +718,39 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
   std::vector<std::string> legend;
   for (const auto& m : models) legend.push_back(fmt::format("{} = {}", m, model_long_name(m)));
   t += "\n" + join(legend, "; ") +
-       ". \"not solved\": at least half of the runs never solved (never solved counts as +∞).\n";
+       (all_hexapod ? std::string(".\n")
+                    : ". \"not solved\": at least half of the runs never solved (never solved "
+                      "counts as +∞).\n");
 
   t += "\n## Real return per episode: median [25th, 75th percentile]\n\n"
        "\"(n runs)\" marks episodes that fewer runs than the group's have reached.\n";
-  std::vector<std::string> priors;
-  for (const auto& g : report.groups)
-    if (std::find(priors.begin(), priors.end(), g.prior) == priors.end()) priors.push_back(g.prior);
-  for (const auto& prior : priors) {
-    std::vector<const GroupReport*> gs;
-    int max_k = 0;
-    for (const auto& g : report.groups)
-      if (g.prior == prior && !g.episodes.empty()) {
-        gs.push_back(&g);
-        max_k = std::max(max_k, g.episodes.back().episode);
-      }
-    if (gs.empty()) continue;
-    // One time column when every group agrees on the interaction time of each episode.
-    std::map<int, std::set<double>> times;
-    for (const auto* g : gs)
-      for (const auto& e : g->episodes) times[e.episode].insert(e.interaction_time_s);
-    bool same_time = true;
-    for (const auto& [k, s] : times) same_time = same_time && s.size() == 1;
-
-    t += fmt::format("\n### Prior {}\n\n| episode |{}", prior_label(prior),
-                     same_time ? " interaction time (s) |" : "");
-    for (const auto* g : gs) t += " " + g->variant + " |";
-    t += "\n|---:|" + std::string(same_time ? "---:|" : "");
-    for (std::size_t i = 0; i < gs.size(); ++i) t += "---|";
-    t += "\n";
-    for (int k = 1; k <= max_k; ++k) {
-      if (!times.count(k)) continue;
-      t += fmt::format("| {} |", k);
-      if (same_time) t += " " + md(*times[k].begin()) + " |";
-      for (const auto* g : gs) {
-        const auto it = std::find_if(g->episodes.begin(), g->episodes.end(),
-                                     [k](const EpisodeStats& e) { return e.episode == k; });
-        if (it == g->episodes.end() || it->runs == 0) {
-          t += " – |";
-          continue;
-        }
-        t += fmt::format(" {} [{}, {}]", md(it->median), md(it->q25), md(it->q75));
-        if (!same_time) t += fmt::format(" at {} s", md(it->interaction_time_s));
-        if (it->runs < g->runs) t += fmt::format(" ({} run{})", it->runs, it->runs == 1 ? "" : "s");
-        t += " |";
-      }
-      t += "\n";
-    }
+  t += episode_tables(report, [](const GroupReport&) { return true; },
+                      [](const EpisodeStats& e) {
+                        return std::tuple(e.runs, e.median, e.q25, e.q75);
+                      },
+                      2);
+  if (std::any_of(report.groups.begin(), report.groups.end(),
+                  [](const GroupReport& g) { return g.has_speed(); })) {
+    t += "\n## Walking speed per episode (m/s): median [25th, 75th percentile]\n\n"
+         "Forward distance over the episode's duration on the \"real\" robot.\n";
+    t += episode_tables(report, [](const GroupReport& g) { return g.has_speed(); },
+                        [](const EpisodeStats& e) {
+                          return std::tuple(e.speed_runs, e.speed_median, e.speed_q25,
+                                            e.speed_q75);
+                        },
+                        3);
+  }
+  if (std::any_of(report.groups.begin(), report.groups.end(), identifies_discrete_prior)) {
+    t += "\n## Prior identified per episode (runs per prior)\n\n"
+         "The prior the model used at each episode (the intact robot or the leg removed; "
+         "gp_prior keeps its start).\n";
+    t += episode_cells(report, identifies_discrete_prior, [](const GroupReport&,
+                                                             const EpisodeStats& e) {
+      std::vector<std::string> parts;
+      for (const auto& [value, n] : e.phi_counts)
+        parts.push_back(fmt::format("{} ×{}", hexapod_prior_name(value), n));
+      return parts.empty() ? std::string("–") : join(parts, ", ");
+    });
   }
 
   // Median φ at each group's last episode (the gp variant uses no prior: left out).
@@ -728,6 +886,12 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
   write_report_markdown(report, out_dir / "report.md");
   std::vector<fs::path> files = {out_dir / "report.md", out_dir / "summary.csv",
                                  out_dir / "returns.csv", out_dir / "phi.csv"};
+  const bool speed = std::any_of(report.groups.begin(), report.groups.end(),
+                                 [](const GroupReport& g) { return g.has_speed(); });
+  if (speed) {
+    write_speed_csv(report, out_dir / "speed.csv");
+    files.push_back(out_dir / "speed.csv");
+  }
   if (figures) {
     try {
       run_plot_script(
@@ -737,6 +901,16 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
       throw Error(fmt::format("{} (the tables are written in {})", e.what(), out_dir.string()));
     }
     files.push_back(out_dir / "returns.png");
+    if (speed) {
+      try {
+        run_plot_script({"report", (out_dir / "speed.csv").string(),
+                         (out_dir / "speed.png").string(), "--quantity", "speed"},
+                        "drops report");
+      } catch (const Error& e) {
+        throw Error(fmt::format("{} (the tables are written in {})", e.what(), out_dir.string()));
+      }
+      files.push_back(out_dir / "speed.png");
+    }
   }
   return files;
 }

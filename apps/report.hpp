@@ -15,6 +15,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace drops::app {
@@ -36,6 +37,8 @@ struct EpisodeResult {
   bool solved = false;         ///< the task's success criterion held on the real system
   bool random_policy = false;  ///< θ was drawn at random (episode 1 of the gp variant)
   std::vector<double> phi;     ///< prior parameters φ used by the model (dim = phi_names)
+  /// Hexapod: forward distance / episode duration on the real robot (m/s); NaN when absent.
+  double walking_speed_m_s = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One run directory read back (config.yaml and summary.json).
@@ -47,7 +50,11 @@ struct RunResult {
   std::string status;
   std::string error;       ///< why a run is unreadable, or the error a failed run recorded
   std::string model_type;  ///< model.type (gp_mi, gp_prior, mi, gp); empty when unknown
-  std::string prior;       ///< prior.preset; empty when unknown
+  std::string task;        ///< task (pendubot, hexapod); empty when unknown
+  /// The panel the run belongs to: prior.preset for the pendubot; for the hexapod the "real"
+  /// robot's damage ("intact", "leg5 removed", "leg2 shortened", "leg1 blocked", joined by ", ").
+  /// Empty when unknown.
+  std::string prior;
   /// Group label: model_type, then " key=value" per extra campaign grid axis.
   std::string variant;
   std::int64_t seed = -1;                   ///< the run's seed; -1 when unknown
@@ -84,13 +91,22 @@ struct EpisodeStats {
   /// Median φ at k per component (dim = GroupReport::phi_names; runs whose φ has another size
   /// are left out).
   std::vector<double> phi_median;
+  /// Runs at k per value of φ's first component, in increasing value order (for a discrete φ
+  /// such as the hexapod's removed leg: how many runs used each prior).
+  std::vector<std::pair<double, int>> phi_counts;
+  int speed_runs = 0;  ///< runs with a finite walking speed at k (hexapod)
+  /// Median and quartiles of the walking speed at k (m/s); NaN when speed_runs = 0.
+  double speed_median = std::numeric_limits<double>::quiet_NaN();
+  double speed_q25 = std::numeric_limits<double>::quiet_NaN();
+  double speed_q75 = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Aggregate of one group (variant, prior) of a campaign.
 struct GroupReport {
   std::string variant;                 ///< see RunResult::variant
   std::string model_type;              ///< model.type of the group's runs
-  std::string prior;                   ///< prior.preset
+  std::string task;                    ///< task of the group's first run
+  std::string prior;                   ///< the panel: see RunResult::prior
   std::vector<std::string> run_names;  ///< started runs of the group
   int runs = 0;              ///< started runs (complete + running + interrupted + failed + other)
   int complete = 0;          ///< status "complete"
@@ -110,17 +126,27 @@ struct GroupReport {
   double median_first_solve_time_s = std::numeric_limits<double>::quiet_NaN();
   /// Median of each run's real return at its last finished episode; NaN when none.
   double median_final_return = std::numeric_limits<double>::quiet_NaN();
+  /// Median of each run's walking speed at its last finished episode (m/s, the hexapod); NaN
+  /// when none.
+  double median_final_speed_m_s = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> phi_names;  ///< φ names (from the group's first run)
   std::vector<double> phi_actual;      ///< φ of the real system (from the group's first run)
   std::vector<EpisodeStats> episodes;  ///< k = 1, 2, ... up to the longest run
+  /// True when some run reported a walking speed (the hexapod).
+  bool has_speed() const {
+    for (const auto& e : episodes)
+      if (e.speed_runs > 0) return true;
+    return false;
+  }
 };
 
 /// A campaign directory read back and aggregated.
 struct CampaignReport {
   std::filesystem::path dir;       ///< the campaign directory
   std::filesystem::path runs_dir;  ///< where the run directories were found
-  /// Grid axes of campaign.yaml (other than seed, model.type and prior.preset) with more than
-  /// one value; they extend the variant labels.
+  /// Grid axes of campaign.yaml (other than seed, model.type, prior.preset and the hexapod's
+  /// hexapod.damage.*, which make the panels) with more than one value; they extend the variant
+  /// labels.
   std::vector<std::string> extra_axes;
   std::vector<RunResult> runs;      ///< every run directory, sorted by name
   std::vector<GroupReport> groups;  ///< by prior (Table I order A–D first), then variant
@@ -143,6 +169,10 @@ void write_summary_csv(const CampaignReport& report, const std::filesystem::path
 /// Writes returns.csv, long format: variant,prior,episode,interaction_time_s,runs,median,q25,q75.
 /// Throws drops::Error when the file cannot be written.
 void write_returns_csv(const CampaignReport& report, const std::filesystem::path& path);
+/// Writes speed.csv (the hexapod's walking speed), long format:
+/// variant,prior,episode,interaction_time_s,runs,median,q25,q75 (m/s), for the groups with
+/// has_speed(). Throws drops::Error when the file cannot be written.
+void write_speed_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes phi.csv, long format: variant,prior,episode,parameter,median,actual (median φ over the
 /// runs that finished the episode; actual = the real system's value).
 /// Throws drops::Error when the file cannot be written.
@@ -165,7 +195,8 @@ std::vector<int> parse_episode_list(const std::string& text, int last);
 std::vector<std::string> plotted_phi_names(const RunResult& run);
 
 /// `drops report`: writes report.md, summary.csv, returns.csv and phi.csv into `out_dir`
-/// (created if needed) and, when `figures`, returns.png through python/drops_plot.py. Returns the
+/// (created if needed), plus speed.csv when a group has walking speeds (the hexapod), and, when
+/// `figures`, returns.png (and speed.png) through python/drops_plot.py. Returns the
 /// files written. Throws drops::Error when a file cannot be written or the figure cannot be drawn
 /// (Debian's /usr/bin/python3 with matplotlib and numpy is needed; the tables are kept).
 /// Not thread-safe with another call writing the same `out_dir`.

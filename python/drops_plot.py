@@ -91,7 +91,12 @@ def variant_label(variant):
 
 
 def prior_title(prior):
-    return PRIOR_TITLES.get(prior, prior)
+    if prior in PRIOR_TITLES:
+        return PRIOR_TITLES[prior]
+    # the hexapod's panels are the "real" robot's damage (apps/report.hpp, RunResult::prior)
+    if prior == "intact" or prior.endswith(("removed", "shortened", "blocked")):
+        return "real robot: " + prior
+    return prior
 
 
 def save(fig, path):
@@ -101,7 +106,7 @@ def save(fig, path):
 
 # ---------------------------------------------------------------- drops report
 
-def plot_report(returns_csv, output_png):
+def plot_report(returns_csv, output_png, quantity="return"):
     with open(returns_csv, newline="") as f:
         rows = list(csv.DictReader(f))
     if not rows:
@@ -150,7 +155,7 @@ def plot_report(returns_csv, output_png):
         ax.set_title(prior_title(prior), loc="left")
         ax.set_xlabel("interaction time (s)")
         if i % ncols == 0:
-            ax.set_ylabel("return")
+            ax.set_ylabel("walking speed (m/s)" if quantity == "speed" else "return")
         ax.set_xlim(left=0)
     for j in range(n, nrows * ncols):
         axes[j // ncols][j % ncols].axis("off")
@@ -167,7 +172,8 @@ def plot_report(returns_csv, output_png):
     legend_rows = math.ceil(len(labels) / legend_cols)
     fig.legend([handles[k] for k in order], [labels[k] for k in order], loc="lower center",
                ncol=legend_cols, frameon=False, bbox_to_anchor=(0.5, 0.0))
-    title = "Return on the real system: line = median over the runs, band = 25–75 %"
+    title = ("Walking speed on the \"real\" robot" if quantity == "speed"
+             else "Return on the real system") + ": line = median over the runs, band = 25–75 %"
     if partial:
         title += "\nhollow markers: not every run has reached this episode yet"
     fig.suptitle(title, fontsize=11)
@@ -453,6 +459,7 @@ def main():
     rep = sub.add_parser("report")
     rep.add_argument("returns_csv")
     rep.add_argument("output_png")
+    rep.add_argument("--quantity", choices=["return", "speed"], default="return")
     run = sub.add_parser("run")
     run.add_argument("run_dir")
     run.add_argument("output_dir")
@@ -460,7 +467,7 @@ def main():
     run.add_argument("--phi", default="")
     args = parser.parse_args()
     if args.command == "report":
-        plot_report(args.returns_csv, args.output_png)
+        plot_report(args.returns_csv, args.output_png, args.quantity)
     else:
         episodes = [int(k) for k in args.episodes.split(",") if k]
         phi = [p for p in args.phi.split(",") if p]

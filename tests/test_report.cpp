@@ -340,6 +340,81 @@ TEST(Report, ExtraGridAxesSplitTheVariant) {
   EXPECT_DOUBLE_EQ(three.median_first_solve_episode, 1.0);
 }
 
+// A hexapod run directory: config.yaml with the damage, summary.json with the walking speed and
+// the prior (φ = removed leg, -1 = intact) of each episode; interaction time 4 k s.
+void fake_hexapod_run(const fs::path& runs, const std::string& name, const std::string& model,
+                      const std::string& removed_leg, int seed, const std::vector<double>& speeds,
+                      const std::vector<double>& legs) {
+  const fs::path dir = runs / name;
+  write(dir / "config.yaml", "task: hexapod\nseed: " + std::to_string(seed) +
+                                 "\nmodel:\n  type: " + model +
+                                 "\nprior:\n  preset: tunable-useful\nhexapod:\n  damage:\n"
+                                 "    removed_leg: " + removed_leg + "\n");
+  nlohmann::json s = {{"task", "hexapod"},       {"model", model},
+                      {"prior", "intact"},       {"seed", seed},
+                      {"episodes_planned", 2},   {"phi_names", {"removed_leg"}},
+                      {"status", "complete"},    {"episodes", nlohmann::json::array()}};
+  for (std::size_t i = 0; i < speeds.size(); ++i)
+    s["episodes"].push_back({{"episode", static_cast<int>(i) + 1},
+                             {"interaction_time_s", 4.0 * static_cast<double>(i + 1)},
+                             {"real_return", 10 * speeds[i]},
+                             {"solved", false},
+                             {"walking_speed_m_s", speeds[i]},
+                             {"phi", {legs[i]}}});
+  write(dir / "summary.json", s.dump(2));
+}
+
+// The hexapod's campaign: panels are the real robot's damage (not prior.preset, which the
+// hexapod ignores), the damage axis does not split the variants, and the walking speed and the
+// prior identified are aggregated per episode. By hand (quantiles of type 7):
+//   gp_mi / leg5 removed, speeds {-0.1, 0.1} {0.0, 0.3} {0.2}, legs {-1, 5} {-1, 0} {-1}:
+//     episode 1: median 0.0, q25 -0.05, q75 0.1, intact x3; episode 2 (2 runs): median 0.2,
+//     q25 0.15, q75 0.25, leg0 x1 and leg5 x1; final speeds {0.1, 0.3, 0.2}: median 0.2.
+TEST(Report, HexapodCampaignAggregatesWalkingSpeedAndThePriorIdentifiedPerDamage) {
+  TempDir tmp;
+  write(tmp.path() / "campaign.yaml",
+        "grid:\n  model.type: [gp_mi, gp_prior]\n  hexapod.damage.removed_leg: [none, leg5]\n"
+        "  seed: {first: 1, count: 3}\nsettings:\n  task: hexapod\n");
+  const fs::path runs = tmp.path() / "runs";
+  fake_hexapod_run(runs, "gp_mi-leg5-seed1", "gp_mi", "leg5", 1, {-0.1, 0.1}, {-1, 5});
+  fake_hexapod_run(runs, "gp_mi-leg5-seed2", "gp_mi", "leg5", 2, {0.0, 0.3}, {-1, 0});
+  fake_hexapod_run(runs, "gp_mi-leg5-seed3", "gp_mi", "leg5", 3, {0.2}, {-1});
+  fake_hexapod_run(runs, "gp_prior-none-seed1", "gp_prior", "none", 1, {0.05, 0.07}, {-1, -1});
+  const CampaignReport rep = aggregate_campaign(tmp.path());
+  EXPECT_TRUE(rep.extra_axes.empty());
+  ASSERT_EQ(rep.groups.size(), 2u);
+  const GroupReport& g = group(rep, "gp_mi", "leg5 removed");
+  EXPECT_EQ(g.task, "hexapod");
+  EXPECT_EQ(g.runs, 3);
+  ASSERT_EQ(g.episodes.size(), 2u);
+  const EpisodeStats& e1 = g.episodes[0];
+  EXPECT_EQ(e1.speed_runs, 3);
+  EXPECT_NEAR(e1.speed_median, 0.0, 1e-12);
+  EXPECT_NEAR(e1.speed_q25, -0.05, 1e-12);
+  EXPECT_NEAR(e1.speed_q75, 0.1, 1e-12);
+  EXPECT_EQ(e1.phi_counts, (std::vector<std::pair<double, int>>{{-1.0, 3}}));
+  const EpisodeStats& e2 = g.episodes[1];
+  EXPECT_EQ(e2.speed_runs, 2);
+  EXPECT_NEAR(e2.speed_median, 0.2, 1e-12);
+  EXPECT_NEAR(e2.speed_q25, 0.15, 1e-12);
+  EXPECT_NEAR(e2.speed_q75, 0.25, 1e-12);
+  EXPECT_EQ(e2.phi_counts, (std::vector<std::pair<double, int>>{{0.0, 1}, {5.0, 1}}));
+  EXPECT_NEAR(g.median_final_speed_m_s, 0.2, 1e-12);
+  EXPECT_NEAR(group(rep, "gp_prior", "intact").median_final_return, 0.7, 1e-12);
+
+  write_speed_csv(rep, tmp.path() / "speed.csv");
+  auto speed = read_csv(tmp.path() / "speed.csv", 3);
+  EXPECT_EQ(speed.size(), 4u);  // 2 groups x 2 episodes
+  EXPECT_NEAR(std::stod(speed.at("gp_mi,leg5 removed,2").at("q75")), 0.25, 1e-9);
+  EXPECT_EQ(speed.at("gp_mi,leg5 removed,2").at("runs"), "2");
+  write_report_markdown(rep, tmp.path() / "report.md");
+  const std::string md = read(tmp.path() / "report.md");
+  EXPECT_NE(md.find("| 2 | leg0 ×1, leg5 ×1 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 2 | 8.00 | 0.200 [0.150, 0.250] (2 runs) |"), std::string::npos) << md;
+  EXPECT_NE(md.find("### Real robot leg5 removed"), std::string::npos) << md;
+  EXPECT_EQ(md.find("solved at least once"), std::string::npos) << "the hexapod has no success";
+}
+
 TEST(Report, MissingOrEmptyCampaignIsAConfigError) {
   TempDir tmp;
   EXPECT_THROW(aggregate_campaign(tmp.path() / "nope"), ConfigError);
@@ -518,4 +593,17 @@ TEST(Figures, ReportAndRunFiguresAreWrittenAsPng) {
   plot_run(run, "1", tmp.path() / "plots");
   EXPECT_TRUE(is_png(tmp.path() / "plots" / "trajectories-001.png"));
   EXPECT_THROW(plot_run(run, "4", tmp.path() / "plots"), ConfigError);
+}
+
+TEST(Figures, HexapodReportAddsTheWalkingSpeedFigure) {
+  if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
+  TempDir tmp;
+  const fs::path runs = tmp.path() / "runs";
+  fake_hexapod_run(runs, "gp_mi-leg5-seed1", "gp_mi", "leg5", 1, {-0.1, 0.1}, {-1, 5});
+  fake_hexapod_run(runs, "gp_mi-none-seed1", "gp_mi", "none", 1, {0.05, 0.2}, {-1, -1});
+  const auto files = write_report(aggregate_campaign(tmp.path()), tmp.path() / "out", true);
+  EXPECT_TRUE(is_png(tmp.path() / "out" / "speed.png"));
+  EXPECT_TRUE(is_png(tmp.path() / "out" / "returns.png"));
+  EXPECT_TRUE(fs::exists(tmp.path() / "out" / "speed.csv"));
+  EXPECT_EQ(files.size(), 7u);  // report.md, 4 CSV files, 2 figures
 }
