@@ -178,7 +178,8 @@ void write_speed_csv(const CampaignReport& report, const std::filesystem::path& 
 /// Throws drops::Error when the file cannot be written.
 void write_phi_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes report.md: run counts, the summary table, median [q25, q75] return per episode (one
-/// table per prior), the final median φ, and the list of runs. Throws drops::Error on write
+/// table per prior), for the hexapod the walking speed and the prior identified per episode, the
+/// final median φ, and the list of runs. Throws drops::Error on write
 /// failure.
 void write_report_markdown(const CampaignReport& report, const std::filesystem::path& path);
 
