@@ -569,23 +569,46 @@ std::string panel_title(const GroupReport& g) {
   return g.task == "hexapod" ? "Real robot " + g.prior : "Prior " + prior_label(g.prior);
 }
 
+// The groups of one panel (a prior, or the hexapod's damage) with episodes, and the last
+// episode any of them reached.
+struct Panel {
+  std::vector<const GroupReport*> groups;
+  int max_k = 0;
+};
+
+// The panels of `report` in group order, each with the groups `keep` accepts; panels left empty
+// are dropped.
+template <class Keep>
+std::vector<Panel> panels(const CampaignReport& report, Keep keep) {
+  std::vector<std::string> priors;
+  for (const auto& g : report.groups)
+    if (std::find(priors.begin(), priors.end(), g.prior) == priors.end()) priors.push_back(g.prior);
+  std::vector<Panel> out;
+  for (const auto& prior : priors) {
+    Panel p;
+    for (const auto& g : report.groups)
+      if (g.prior == prior && !g.episodes.empty() && keep(g)) {
+        p.groups.push_back(&g);
+        p.max_k = std::max(p.max_k, g.episodes.back().episode);
+      }
+    if (!p.groups.empty()) out.push_back(std::move(p));
+  }
+  return out;
+}
+
+// The statistics of group g at episode k; nullptr when no run reached k.
+const EpisodeStats* stats_at(const GroupReport& g, int k) {
+  const auto it = std::find_if(g.episodes.begin(), g.episodes.end(),
+                               [k](const EpisodeStats& e) { return e.episode == k; });
+  return it == g.episodes.end() ? nullptr : &*it;
+}
+
 // One Markdown table per panel (prior, or the hexapod's damage) of the groups `keep` accepts:
 // a row per episode, a column per variant, the cell cell(group, stats at k).
 template <class Keep, class Cell>
 std::string episode_cells(const CampaignReport& report, Keep keep, Cell cell) {
   std::string t;
-  std::vector<std::string> priors;
-  for (const auto& g : report.groups)
-    if (std::find(priors.begin(), priors.end(), g.prior) == priors.end()) priors.push_back(g.prior);
-  for (const auto& prior : priors) {
-    std::vector<const GroupReport*> gs;
-    int max_k = 0;
-    for (const auto& g : report.groups)
-      if (g.prior == prior && !g.episodes.empty() && keep(g)) {
-        gs.push_back(&g);
-        max_k = std::max(max_k, g.episodes.back().episode);
-      }
-    if (gs.empty()) continue;
+  for (const auto& [gs, max_k] : panels(report, keep)) {
     t += fmt::format("\n### {}\n\n| episode |", panel_title(*gs.front()));
     for (const auto* g : gs) t += " " + g->variant + " |";
     t += "\n|---:|";
@@ -594,10 +617,9 @@ std::string episode_cells(const CampaignReport& report, Keep keep, Cell cell) {
     for (int k = 1; k <= max_k; ++k) {
       t += fmt::format("| {} |", k);
       for (const auto* g : gs) {
-        const auto it = std::find_if(g->episodes.begin(), g->episodes.end(),
-                                     [k](const EpisodeStats& e) { return e.episode == k; });
+        const EpisodeStats* e = stats_at(*g, k);
         t += ' ';
-        t += it == g->episodes.end() ? std::string("–") : cell(*g, *it);
+        t += e ? cell(*g, *e) : std::string("–");
         t += " |";
       }
       t += "\n";
@@ -611,18 +633,7 @@ std::string episode_cells(const CampaignReport& report, Keep keep, Cell cell) {
 template <class Keep, class Get>
 std::string episode_tables(const CampaignReport& report, Keep keep, Get get, int decimals) {
   std::string t;
-  std::vector<std::string> priors;
-  for (const auto& g : report.groups)
-    if (std::find(priors.begin(), priors.end(), g.prior) == priors.end()) priors.push_back(g.prior);
-  for (const auto& prior : priors) {
-    std::vector<const GroupReport*> gs;
-    int max_k = 0;
-    for (const auto& g : report.groups)
-      if (g.prior == prior && !g.episodes.empty() && keep(g)) {
-        gs.push_back(&g);
-        max_k = std::max(max_k, g.episodes.back().episode);
-      }
-    if (gs.empty()) continue;
+  for (const auto& [gs, max_k] : panels(report, keep)) {
     // One time column when every group agrees on the interaction time of each episode.
     std::map<int, std::set<double>> times;
     for (const auto* g : gs)
@@ -641,16 +652,15 @@ std::string episode_tables(const CampaignReport& report, Keep keep, Get get, int
       t += fmt::format("| {} |", k);
       if (same_time) t += " " + md(*times[k].begin()) + " |";
       for (const auto* g : gs) {
-        const auto it = std::find_if(g->episodes.begin(), g->episodes.end(),
-                                     [k](const EpisodeStats& e) { return e.episode == k; });
-        if (it == g->episodes.end() || std::get<0>(get(*it)) == 0) {
+        const EpisodeStats* e = stats_at(*g, k);
+        if (!e || std::get<0>(get(*e)) == 0) {
           t += " – |";
           continue;
         }
-        const auto [runs, median, q25, q75] = get(*it);
+        const auto [runs, median, q25, q75] = get(*e);
         t += fmt::format(" {} [{}, {}]", md(median, decimals), md(q25, decimals),
                          md(q75, decimals));
-        if (!same_time) t += fmt::format(" at {} s", md(it->interaction_time_s));
+        if (!same_time) t += fmt::format(" at {} s", md(e->interaction_time_s));
         if (runs < g->runs) t += fmt::format(" ({} run{})", runs, runs == 1 ? "" : "s");
         t += " |";
       }
