@@ -21,6 +21,8 @@ void add_config_command(CLI::App& app, Action& action);
 void add_campaign_command(CLI::App& app, Action& action);
 /// `drops report CAMPAIGN_DIR`.
 void add_report_command(CLI::App& app, Action& action);
+/// `drops direct [CONFIG] [key=value ...]`: the policy optimized on the real system, no model.
+void add_direct_command(CLI::App& app, Action& action);
 /// `drops plot RUN_DIR`.
 void add_plot_command(CLI::App& app, Action& action);
 

@@ -4,6 +4,7 @@
 //   campaign  a grid of runs in parallel processes or over MPI (campaign.cpp)
 //   report    aggregated tables and figures of a campaign (report.cpp)
 //   plot      figures of one run (report.cpp)
+//   direct    the policy optimized on the real system, no model (direct_command.cpp)
 
 #include <iostream>
 
@@ -22,6 +23,7 @@ int main(int argc, char** argv) {
   drops::app::add_campaign_command(app, action);
   drops::app::add_report_command(app, action);
   drops::app::add_plot_command(app, action);
+  drops::app::add_direct_command(app, action);
   CLI11_PARSE(app, argc, argv);
   try {
     return action ? action() : 0;

@@ -66,13 +66,13 @@ RunDirectory::RunDirectory(const fs::path& dir, const io::Experiment& experiment
                            const TaskSetup& setup)
     : dir_(dir), experiment_(experiment), setup_(setup) {}
 
-void RunDirectory::write_trajectory(const fs::path& path, const rollout::Trajectory& tr) const {
-  const double dt = setup_.task->dt();
+std::string trajectory_csv(const rollout::Trajectory& tr, const TaskSetup& setup) {
+  const double dt = setup.task->dt();
   std::string text = "t";
-  for (const auto& n : setup_.state_names) text += "," + n;
-  for (const auto& n : setup_.action_names) text += "," + n;
+  for (const auto& n : setup.state_names) text += "," + n;
+  for (const auto& n : setup.action_names) text += "," + n;
   text += ",reward";
-  for (const auto& n : setup_.state_extra_names) text += "," + n;
+  for (const auto& n : setup.state_extra_names) text += "," + n;
   text += "\n";
   const std::string no_action(static_cast<std::size_t>(tr.actions.cols()), ',');
   for (Eigen::Index t = 0; t < tr.states.rows(); ++t) {
@@ -84,11 +84,15 @@ void RunDirectory::write_trajectory(const fs::path& path, const rollout::Traject
       text += no_action;
     }
     text += t > 0 ? fmt::format(",{:.10g}", tr.rewards[t - 1]) : ",";
-    if (setup_.state_extras)
-      for (double v : setup_.state_extras(tr.states.row(t).transpose())) text += fmt::format(",{:.6g}", v);
+    if (setup.state_extras)
+      for (double v : setup.state_extras(tr.states.row(t).transpose())) text += fmt::format(",{:.6g}", v);
     text += "\n";
   }
-  write_file_atomically(path, text);
+  return text;
+}
+
+void RunDirectory::write_trajectory(const fs::path& path, const rollout::Trajectory& tr) const {
+  write_file_atomically(path, trajectory_csv(tr, setup_));
 }
 
 RunDirectory::~RunDirectory() {

@@ -32,6 +32,11 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
 /// The current UTC time as ISO 8601 ("2026-11-21T17:05:27Z"), for logs and summaries.
 std::string now_iso();
 
+/// A trajectory as CSV text, the format of episodes/NNN/real.csv: a header, then per step t (s),
+/// the state (named by setup.state_names), the action that followed it (empty on the last row),
+/// the reward that led to it (empty on the first row) and the task's per-state extras.
+std::string trajectory_csv(const rollout::Trajectory& tr, const TaskSetup& setup);
+
 /// Thrown when another process holds the run directory's lock (drops run exits with code 3).
 class RunDirectoryBusy : public Error {
  public:

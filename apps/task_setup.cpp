@@ -94,6 +94,11 @@ TaskSetup hexapod_setup(const io::Experiment& e) {
     return v;
   };
 
+  s.trajectory_metric_names = {"walking_speed_m_s"};
+  s.trajectory_metrics = [task](const rollout::Trajectory& t) {
+    return std::vector<double>{task->walking_speed(t)};
+  };
+
   // Foot heights of the real robot's body for the gait diagram (drops plot).
   for (int k = 0; k < kNumLegs; ++k) s.state_extra_names.push_back(fmt::format("foot{}_height", k));
   PriorOptions fk = ro.simulator;

@@ -27,6 +27,11 @@ struct TaskSetup {
   /// from the thread that runs Algorithm 1.
   std::vector<std::string> metric_names;
   std::function<std::vector<double>(const algo::EpisodeRecord&)> metrics;
+  /// The subset of the metrics that a real trajectory alone determines (no model involved), for
+  /// `drops direct`: names and a function of the trajectory returning one value per name; thread-
+  /// safe. May be empty (pendubot).
+  std::vector<std::string> trajectory_metric_names;
+  std::function<std::vector<double>(const rollout::Trajectory&)> trajectory_metrics;
   /// Extra columns of the trajectory files computed from each state (e.g. the hexapod's foot
   /// heights for the gait diagram); names and a function of the state (dim E) returning one value
   /// per name. May be empty.

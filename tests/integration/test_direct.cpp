@@ -1,0 +1,128 @@
+// `drops direct`: the policy optimized directly on the real system (no model). On the pendubot
+// (fast real episodes): the recorded best episode is the one scored, the search beats the
+// zero policy, the result does not depend on the thread count, and bad input is refused.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <vector>
+
+#include "drops/core/rng.hpp"
+#include "drops/io/config.hpp"
+#include "drops/rollout/rollout.hpp"
+#include "task_setup.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d =
+      fs::temp_directory_path() / ("drops-direct-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+int run(const std::string& args, std::string* stderr_text = nullptr) {
+  const std::string err =
+      (fs::temp_directory_path() / ("drops-direct-stderr-" + std::to_string(getpid()))).string();
+  const int rc = std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err).c_str());
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (stderr_text) *stderr_text = ss.str();
+  return WEXITSTATUS(rc);
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+/// Rows of a CSV file with a header: the named column as numbers (empty cells skipped).
+std::vector<double> column(const fs::path& p, const std::string& name) {
+  std::ifstream in(p);
+  std::string line, cell;
+  std::getline(in, line);
+  std::stringstream h(line);
+  int index = -1;
+  for (int i = 0; std::getline(h, cell, ','); ++i)
+    if (cell == name) index = i;
+  EXPECT_GE(index, 0) << name << " not in " << p;
+  std::vector<double> v;
+  while (std::getline(in, line)) {
+    std::stringstream s(line);
+    for (int i = 0; std::getline(s, cell, ','); ++i)
+      if (i == index && !cell.empty()) v.push_back(std::stod(cell));
+  }
+  return v;
+}
+
+}  // namespace
+
+TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheThreadCount) {
+  const fs::path out = fresh_dir("pendubot");
+  std::string err;
+  ASSERT_EQ(run("direct --evaluations 600 --seed 3 --threads 1 --output " + out.string() +
+                    " --name t1 -q",
+                &err),
+            0)
+      << err;
+  ASSERT_EQ(run("direct --evaluations 600 --seed 3 --threads 2 --output " + out.string() +
+                    " --name t2 -q",
+                &err),
+            0)
+      << err;
+  const auto s1 = read_json(out / "t1" / "summary.json");
+  const auto s2 = read_json(out / "t2" / "summary.json");
+  EXPECT_EQ(s1["status"], "complete");
+  EXPECT_LE(s1["evaluations"].get<long>(), 600);
+  // one seed, one result, whatever the thread count
+  EXPECT_EQ(s1["best_return"].get<double>(), s2["best_return"].get<double>());
+  EXPECT_EQ(s1["theta"], s2["theta"]);
+
+  // best.csv is the scored episode: its rewards add up to the best return
+  const double best = s1["best_return"].get<double>();
+  double sum = 0;
+  for (double r : column(out / "t1" / "best.csv", "reward")) sum += r;
+  EXPECT_NEAR(sum, best, 1e-6 * std::max(1.0, std::abs(best)));
+
+  // progress.csv: the best return so far never falls and ends at the summary's
+  const std::vector<double> p = column(out / "t1" / "progress.csv", "best_return");
+  ASSERT_FALSE(p.empty());
+  for (std::size_t i = 1; i < p.size(); ++i) EXPECT_GE(p[i], p[i - 1]);
+  EXPECT_NEAR(p.back(), best, 1e-6 * std::max(1.0, std::abs(best)));
+
+  // the search beats the policy at the centre of the box it starts from (theta = 0: no torque)
+  const drops::io::Experiment e = drops::io::make_experiment(drops::io::load_settings("", {}));
+  const drops::app::TaskSetup setup = drops::app::make_task_setup(e);
+  setup.policy->set_params(drops::VectorXd::Zero(setup.policy->param_dim()));
+  drops::Rng rng(1);
+  const double zero = drops::rollout::run_episode(*setup.task, *setup.real, *setup.policy, rng)
+                          .total_return();
+  EXPECT_GT(best, zero + 1.0) << "zero policy " << zero;
+  for (const auto& t : s1["theta"]) EXPECT_LE(std::abs(t.get<double>()), e.algo.theta_bound);
+  fs::remove_all(out);
+}
+
+TEST(Direct, RefusesABadConfigAndAnExistingResultDirectory) {
+  const fs::path out = fresh_dir("bad");
+  std::string err;
+  EXPECT_EQ(run("direct optimizer.max_evalutions=10 --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find("max_evalutions"), std::string::npos) << err;
+  ASSERT_EQ(run("direct --evaluations 20 --output " + out.string() + " --name a -q", &err), 0)
+      << err;
+  const std::string before = read_json(out / "a" / "summary.json").dump();
+  EXPECT_EQ(run("direct --evaluations 20 --output " + out.string() + " --name a -q", &err), 1);
+  EXPECT_NE(err.find("already holds"), std::string::npos) << err;
+  EXPECT_EQ(read_json(out / "a" / "summary.json").dump(), before);  // nothing overwritten
+  fs::remove_all(out);
+}
