@@ -16,6 +16,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <ctime>
 #include <fstream>
@@ -58,9 +59,40 @@ struct DirectArgs {
   std::optional<std::uint64_t> seed;
   std::optional<int> threads;
   std::optional<long> evaluations;
-  std::string output, name;
+  std::string output, name, start;
   bool quiet = false;
 };
+
+/// theta0 from a file of one value per line (the format of a run's episodes/NNN/policy.csv).
+/// Throws ConfigError naming the file when it cannot be read, a line is not a finite number, the
+/// count is not n or a value lies outside [-bound, bound].
+VectorXd read_start(const std::string& path, int n, double bound) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError("--start: cannot open " + path);
+  std::vector<double> v;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    std::size_t used = 0;
+    double x = 0;
+    try {
+      x = std::stod(line, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || !std::isfinite(x))
+      throw ConfigError(fmt::format("--start: {} line {}: '{}' is not a finite number", path,
+                                    v.size() + 1, line));
+    if (std::abs(x) > bound)
+      throw ConfigError(fmt::format("--start: {} line {}: {} is outside the policy box [-{}, {}] "
+                                    "(policy.bound)", path, v.size() + 1, x, bound, bound));
+    v.push_back(x);
+  }
+  if (static_cast<int>(v.size()) != n)
+    throw ConfigError(fmt::format("--start: {} holds {} values; the policy has {} parameters",
+                                  path, v.size(), n));
+  return Eigen::Map<VectorXd>(v.data(), n);
+}
 
 /// One real episode of theta with the random stream `stream` (measurement noise).
 rollout::Trajectory real_episode(const TaskSetup& setup, const VectorXd& theta,
@@ -94,6 +126,10 @@ int direct_main(const DirectArgs& a) {
   const io::Experiment e = io::make_experiment(settings);
   ThreadLimit threads(e.threads);
   const TaskSetup setup = make_task_setup(e);
+  const int n = setup.policy->param_dim();
+  const double b = e.algo.theta_bound;
+  // Start: the centre of the box, or --start (evaluated too, and kept when it beats the search).
+  const VectorXd x0 = a.start.empty() ? VectorXd::Zero(n) : read_start(a.start, n, b);
 
   std::string name = e.name;
   if (name.empty()) {
@@ -114,18 +150,17 @@ int direct_main(const DirectArgs& a) {
   if (!progress) throw Error("cannot write " + (dir / "progress.csv").string());
   progress << "evaluations,restarts,generation,best_return,sigma,lambda,seconds\n" << std::flush;
 
-  const int n = setup.policy->param_dim();
-  const double b = e.algo.theta_bound;
   opt::CmaesOptions co = e.algo.cmaes;
   co.seed = derive_seed(e.seed, {kDirectSearch});
   if (co.sigma0 <= 0) co.sigma0 = b;  // as the policy search on the model (settings.md §5)
   co.parallel = e.threads != 1;
+  // --start costs one episode of the budget
+  if (!a.start.empty() && co.max_evaluations > 1) --co.max_evaluations;
   const VectorXd lower = VectorXd::Constant(n, -b), upper = VectorXd::Constant(n, b);
-  const VectorXd x0 = VectorXd::Zero(n);  // the centre of the box
 
   nlohmann::json summary = {{"task", e.task},
                             {"seed", e.seed},
-                            {"max_evaluations", co.max_evaluations},
+                            {"max_evaluations", e.algo.cmaes.max_evaluations},
                             {"started", now_iso()}};
   auto write_summary = [&](const std::string& status) {
     summary["status"] = status;
@@ -135,7 +170,7 @@ int direct_main(const DirectArgs& a) {
 
   const bool live = !a.quiet && isatty(STDERR_FILENO);
   std::cerr << fmt::format("drops direct: {} (no model), {} real episodes at most, seed {}, {} threads\n",
-                           e.task, co.max_evaluations, e.seed, e.threads ? e.threads : hardware_threads());
+                           e.task, e.algo.cmaes.max_evaluations, e.seed, e.threads ? e.threads : hardware_threads());
   std::cerr << "directory: " << dir.string() << "\n";
 
   g_direct_interrupts = 0;
@@ -164,13 +199,24 @@ int direct_main(const DirectArgs& a) {
              << std::flush;
     if (live)
       std::cerr << fmt::format("\r\033[K[direct] {}/{} episodes, best return {:.3f}, restart {}",
-                               p.evaluations, co.max_evaluations, -p.best_value, p.restarts)
+                               p.evaluations, e.algo.cmaes.max_evaluations, -p.best_value, p.restarts)
                 << std::flush;
     return g_direct_interrupts.load() == 0;
   };
   opt::CmaesSummary s;
   try {
+    double start_value = std::numeric_limits<double>::infinity();
+    if (!a.start.empty()) start_value = objective(x0, derive_seed(e.seed, {kDirectSearch, 1}));
     s = opt::cmaes_minimize(objective, x0, lower, upper, co, on_generation);
+    if (!a.start.empty()) {
+      ++s.evaluations;
+      summary["start_return"] = -start_value;
+      if (start_value < s.best_value) {
+        s.best_x = x0;
+        s.best_value = start_value;
+        s.run_stop_reasons.push_back("StartPointKept");
+      }
+    }
   } catch (const std::exception& ex) {
     if (live) std::cerr << "\r\033[K";
     summary["error"] = ex.what();
@@ -223,6 +269,10 @@ void add_direct_command(CLI::App& app, Action& action) {
   cmd->add_option("--evaluations", args->evaluations,
                   "real episodes at most (same as optimizer.max_evaluations=N)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--start", args->start,
+                  "start point: a file of policy parameters, one per line (e.g. a run's "
+                  "episodes/NNN/policy.csv); evaluated too and kept if the search does not beat it "
+                  "(default: the centre of the box)");
   cmd->add_option("--seed", args->seed, "seed of the search (same as seed=N)");
   cmd->add_option("--threads", args->threads, "worker threads, 0 = all (same as threads=N)");
   cmd->add_option("--output", args->output, "parent directory of the result directory (default runs)");

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -66,6 +67,12 @@ std::vector<double> column(const fs::path& p, const std::string& name) {
   return v;
 }
 
+std::string fmt_double(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
 }  // namespace
 
 TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheThreadCount) {
@@ -110,6 +117,22 @@ TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheT
                           .total_return();
   EXPECT_GT(best, zero + 1.0) << "zero policy " << zero;
   for (const auto& t : s1["theta"]) EXPECT_LE(std::abs(t.get<double>()), e.algo.theta_bound);
+
+  // --start from that best policy: evaluated (the pendubot is noise-free: the same return) and
+  // kept unless the search beats it, within the same budget
+  {
+    std::ofstream f(out / "start.csv");
+    for (const auto& t : s1["theta"]) f << fmt_double(t.get<double>()) << "\n";
+  }
+  ASSERT_EQ(run("direct --evaluations 30 --seed 4 --start " + (out / "start.csv").string() +
+                    " --output " + out.string() + " --name s -q",
+                &err),
+            0)
+      << err;
+  const auto s3 = read_json(out / "s" / "summary.json");
+  EXPECT_NEAR(s3["start_return"].get<double>(), best, 1e-9 * std::max(1.0, std::abs(best)));
+  EXPECT_GE(s3["best_return"].get<double>(), s3["start_return"].get<double>());
+  EXPECT_LE(s3["evaluations"].get<long>(), 30);
   fs::remove_all(out);
 }
 
@@ -124,5 +147,15 @@ TEST(Direct, RefusesABadConfigAndAnExistingResultDirectory) {
   EXPECT_EQ(run("direct --evaluations 20 --output " + out.string() + " --name a -q", &err), 1);
   EXPECT_NE(err.find("already holds"), std::string::npos) << err;
   EXPECT_EQ(read_json(out / "a" / "summary.json").dump(), before);  // nothing overwritten
+  {
+    std::ofstream f(out / "short.csv");
+    f << "0.1\n0.2\n";
+  }
+  EXPECT_EQ(run("direct --start " + (out / "short.csv").string() + " --output " + out.string() +
+                    " --name b -q",
+                &err),
+            2);
+  EXPECT_NE(err.find("holds 2 values; the policy has 81"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out / "b"));  // refused before anything was written
   fs::remove_all(out);
 }
