@@ -763,11 +763,13 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
     });
   }
 
-  // Median φ at each group's last episode (the gp variant uses no prior: left out).
+  // Median φ at each group's last episode (the gp variant uses no prior: left out; so is the
+  // hexapod, whose φ is a discrete leg index, shown above as the prior identified per episode).
   std::vector<std::string> names;
   std::vector<const GroupReport*> with_phi;
   for (const auto& g : report.groups) {
-    if (g.model_type == "gp" || g.episodes.empty() || g.phi_names.empty()) continue;
+    if (g.model_type == "gp" || g.task == "hexapod" || g.episodes.empty() || g.phi_names.empty())
+      continue;
     with_phi.push_back(&g);
     for (const auto& n : g.phi_names)
       if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);

@@ -413,6 +413,8 @@ TEST(Report, HexapodCampaignAggregatesWalkingSpeedAndThePriorIdentifiedPerDamage
   EXPECT_NE(md.find("| 2 | 8.00 | 0.200 [0.150, 0.250] (2 runs) |"), std::string::npos) << md;
   EXPECT_NE(md.find("### Real robot leg5 removed"), std::string::npos) << md;
   EXPECT_EQ(md.find("solved at least once"), std::string::npos) << "the hexapod has no success";
+  // φ is a leg index: no median-φ table (and no single "actual" row, which differs per damage)
+  EXPECT_EQ(md.find("actual (real system)"), std::string::npos) << md;
 }
 
 TEST(Report, MissingOrEmptyCampaignIsAConfigError) {
