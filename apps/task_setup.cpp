@@ -33,6 +33,24 @@ TaskSetup pendubot_setup(const io::Experiment& e) {
 }
 
 #ifdef DROPS_WITH_HEXAPOD
+}  // namespace
+
+hexapod::HexapodSpec real_robot_spec(const io::Experiment& e) {
+  using hexapod::HexapodSpec;
+  const io::HexapodSettings& h = e.hexapod;
+  HexapodSpec spec = HexapodSpec::with_leg_removed(h.removed_leg);
+  if (h.shortened_leg >= 0)
+    spec.legs[static_cast<std::size_t>(h.shortened_leg)].tibia_length_factor = h.tibia_factor;
+  if (h.blocked_leg >= 0) {
+    auto& leg = spec.legs[static_cast<std::size_t>(h.blocked_leg)];
+    leg.blocked_joint = h.blocked_joint;
+    leg.blocked_angle = h.blocked_angle;
+  }
+  return spec;
+}
+
+namespace {
+
 TaskSetup hexapod_setup(const io::Experiment& e) {
   using namespace drops::hexapod;
   const io::HexapodSettings& h = e.hexapod;
@@ -44,14 +62,7 @@ TaskSetup hexapod_setup(const io::Experiment& e) {
   s.task = task;
 
   RealRobotOptions ro;
-  ro.spec = HexapodSpec::with_leg_removed(h.removed_leg);
-  if (h.shortened_leg >= 0)
-    ro.spec.legs[static_cast<std::size_t>(h.shortened_leg)].tibia_length_factor = h.tibia_factor;
-  if (h.blocked_leg >= 0) {
-    auto& leg = ro.spec.legs[static_cast<std::size_t>(h.blocked_leg)];
-    leg.blocked_joint = h.blocked_joint;
-    leg.blocked_angle = h.blocked_angle;
-  }
+  ro.spec = real_robot_spec(e);
   if (!h.noise) ro.noise = MeasurementNoise{0, 0, 0, 0, 0, 0};
   std::string why;
   if (!ro.IsValid(&why)) throw ConfigError("config: hexapod.damage: " + why);

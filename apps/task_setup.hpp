@@ -47,4 +47,15 @@ TaskSetup make_task_setup(const io::Experiment& e);
 /// True when this build includes the hexapod task (DART found at configure time).
 bool hexapod_available();
 
+#ifdef DROPS_WITH_HEXAPOD
+}  // namespace drops::app
+namespace drops::hexapod {
+struct HexapodSpec;
+}  // namespace drops::hexapod
+namespace drops::app {
+/// The hexapod "real" robot of e (its hexapod.damage.* keys) as a HexapodSpec (hexapod/robot.hpp).
+/// Throws ConfigError naming the key when the damage is impossible.
+hexapod::HexapodSpec real_robot_spec(const io::Experiment& e);
+#endif
+
 }  // namespace drops::app

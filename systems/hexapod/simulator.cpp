@@ -367,6 +367,7 @@ double PriorSimulator::time() const {
   return static_cast<double>(impl_->steps_done) * impl_->options.physics_dt;
 }
 int PriorSimulator::substeps() const { return impl_->substeps; }
+std::shared_ptr<dart::simulation::World> PriorSimulator::world() const { return impl_->world; }
 const HexapodSpec& PriorSimulator::spec() const { return impl_->spec; }
 const PriorOptions& PriorSimulator::options() const { return impl_->options; }
 

@@ -35,6 +35,10 @@
 
 #include "hexapod/robot.hpp"
 
+namespace dart::simulation {
+class World;
+}  // namespace dart::simulation
+
 namespace drops::hexapod {
 
 /// Dimension of the state x.
@@ -179,6 +183,10 @@ class PriorSimulator {
   int num_dofs() const;
   /// Total mass of the skeleton, kg (2.495 for the intact robot).
   double mass() const;
+  /// The simulator's DART world (the robot and the ground), e.g. for a viewer that replays
+  /// recorded states through set_state (hexapod_animate). Declared, not defined, here: using it
+  /// needs DART's headers. Valid while the simulator lives; not thread-safe.
+  std::shared_ptr<dart::simulation::World> world() const;
 
  private:
   struct Impl;
