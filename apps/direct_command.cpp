@@ -14,11 +14,8 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <csignal>
-#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <limits>
@@ -27,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli_common.hpp"
 #include "command.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -41,15 +39,6 @@ namespace drops::app {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::atomic<int> g_direct_interrupts{0};
-
-extern "C" void on_direct_sigint(int) {
-  if (g_direct_interrupts.fetch_add(1) >= 1) {
-    std::signal(SIGINT, SIG_DFL);
-    std::raise(SIGINT);
-  }
-}
 
 /// Random-stream tags of drops direct (derive_seed(seed, {tag})).
 constexpr std::uint64_t kDirectSearch = 0xD12EC7;
@@ -106,23 +95,13 @@ rollout::Trajectory real_episode(const TaskSetup& setup, const VectorXd& theta,
 int direct_main(const DirectArgs& a) {
   std::vector<std::string> overrides;
   std::string file;
-  for (const auto& s : a.args) {
-    if (s.find('=') != std::string::npos) {
-      overrides.push_back(s);
-    } else if (file.empty()) {
-      file = s;
-    } else {
-      throw ConfigError("more than one config file given ('" + file + "' and '" + s +
-                        "'); overrides are written key=value");
-    }
-  }
+  split_args(a.args, file, overrides);
   if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
   if (a.threads) overrides.push_back("threads=" + std::to_string(*a.threads));
   if (a.evaluations) overrides.push_back("optimizer.max_evaluations=" + std::to_string(*a.evaluations));
   if (!a.output.empty()) overrides.push_back("output=" + a.output);
   if (!a.name.empty()) overrides.push_back("name=" + a.name);
-  const io::Settings settings =
-      file.empty() ? io::load_settings("", overrides) : io::load_settings_file(file, overrides);
+  const io::Settings settings = settings_from(file, overrides);
   const io::Experiment e = io::make_experiment(settings);
   ThreadLimit threads(e.threads);
   const TaskSetup setup = make_task_setup(e);
@@ -132,12 +111,7 @@ int direct_main(const DirectArgs& a) {
   const VectorXd x0 = a.start.empty() ? VectorXd::Zero(n) : read_start(a.start, n, b);
 
   std::string name = e.name;
-  if (name.empty()) {
-    const std::time_t t = std::time(nullptr);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", std::localtime(&t));
-    name = fmt::format("direct-{}-seed{}-{}", e.task, e.seed, buf);
-  }
+  if (name.empty()) name = fmt::format("direct-{}-seed{}-{}", e.task, e.seed, local_timestamp());
   const fs::path dir = fs::path(e.output) / name;
   if (fs::exists(dir / "progress.csv"))
     throw Error("directory " + dir.string() + " already holds a direct search; choose another "
@@ -173,8 +147,7 @@ int direct_main(const DirectArgs& a) {
                            e.task, e.algo.cmaes.max_evaluations, e.seed, e.threads ? e.threads : hardware_threads());
   std::cerr << "directory: " << dir.string() << "\n";
 
-  g_direct_interrupts = 0;
-  std::signal(SIGINT, on_direct_sigint);
+  install_interrupt_handler();
   const auto start = std::chrono::steady_clock::now();
   auto seconds = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -201,7 +174,7 @@ int direct_main(const DirectArgs& a) {
       std::cerr << fmt::format("\r\033[K[direct] {}/{} episodes, best return {:.3f}, restart {}",
                                p.evaluations, e.algo.cmaes.max_evaluations, -p.best_value, p.restarts)
                 << std::flush;
-    return g_direct_interrupts.load() == 0;
+    return !interrupt_requested();
   };
   opt::CmaesSummary s;
   try {
@@ -225,7 +198,7 @@ int direct_main(const DirectArgs& a) {
     throw;
   }
   if (live) std::cerr << "\r\033[K";
-  const bool interrupted = g_direct_interrupts.load() > 0;
+  const bool interrupted = interrupt_requested();
 
   // The best episode again, with the stream it was evaluated with (the same episode: run_episode
   // is deterministic given theta and the stream), for its metrics and best.csv.
@@ -246,8 +219,8 @@ int direct_main(const DirectArgs& a) {
   write_summary(interrupted ? "interrupted" : "complete");
 
   std::string metrics;
-  for (const auto& [k, v] : summary.items())
-    if (k.find("_m_s") != std::string::npos) metrics += fmt::format(", {} {:.3f}", k, v.get<double>());
+  for (const auto& m : setup.trajectory_metric_names)
+    metrics += fmt::format(", {} {:.3f}", m, summary[m].get<double>());
   std::cerr << fmt::format("{}: {} episodes, best return {:.3f}{} in {:.1f} s; results in {}\n",
                            interrupted ? "interrupted" : "done", s.evaluations, -s.best_value,
                            metrics, seconds(), dir.string());

@@ -4,13 +4,11 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <chrono>
-#include <csignal>
-#include <ctime>
 #include <iostream>
 #include <optional>
 
+#include "cli_common.hpp"
 #include "command.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -21,15 +19,6 @@
 namespace drops::app {
 namespace {
 
-std::atomic<int> g_interrupts{0};
-
-extern "C" void on_sigint(int) {
-  if (g_interrupts.fetch_add(1) >= 1) {
-    std::signal(SIGINT, SIG_DFL);
-    std::raise(SIGINT);
-  }
-}
-
 std::string phi_brief(const VectorXd& phi, const std::vector<std::string>& names,
                       const std::vector<int>& tunable) {
   std::string s;
@@ -39,30 +28,8 @@ std::string phi_brief(const VectorXd& phi, const std::vector<std::string>& names
 }
 
 std::string default_name(const io::Experiment& e) {
-  const std::time_t t = std::time(nullptr);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", std::localtime(&t));
   return fmt::format("{}-{}-{}-seed{}-{}", e.task, model::to_string(e.algo.model.type),
-                     e.prior_preset, e.seed, buf);
-}
-
-/// Splits positional arguments into an optional config file and key=value overrides.
-void split_args(const std::vector<std::string>& args, std::string& file,
-                std::vector<std::string>& overrides) {
-  for (const auto& a : args) {
-    if (a.find('=') != std::string::npos) {
-      overrides.push_back(a);
-    } else if (file.empty()) {
-      file = a;
-    } else {
-      throw ConfigError("more than one config file given ('" + file + "' and '" + a +
-                        "'); overrides are written key=value");
-    }
-  }
-}
-
-io::Settings settings_from(const std::string& file, const std::vector<std::string>& ov) {
-  return file.empty() ? io::load_settings("", ov) : io::load_settings_file(file, ov);
+                     e.prior_preset, e.seed, local_timestamp());
 }
 
 struct RunArgs {
@@ -140,11 +107,10 @@ int run_main(const RunArgs& a) {
     }
   }
 
-  g_interrupts = 0;
-  std::signal(SIGINT, on_sigint);
+  install_interrupt_handler();
   auto last = std::chrono::steady_clock::now();
   algo::BlackDropsCallbacks cb;
-  cb.should_stop = [] { return g_interrupts.load() > 0; };
+  cb.should_stop = [] { return interrupt_requested(); };
   cb.on_status = [&](const algo::Status& s) {
     if (!live) return;
     const auto now = std::chrono::steady_clock::now();

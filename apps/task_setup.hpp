@@ -12,6 +12,10 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/io/config.hpp"
 
+namespace drops::hexapod {
+struct HexapodSpec;  // hexapod/robot.hpp
+}  // namespace drops::hexapod
+
 namespace drops::app {
 
 /// Everything run_black_drops needs for one experiment, plus what the run directory records.
@@ -48,13 +52,11 @@ TaskSetup make_task_setup(const io::Experiment& e);
 bool hexapod_available();
 
 #ifdef DROPS_WITH_HEXAPOD
-}  // namespace drops::app
-namespace drops::hexapod {
-struct HexapodSpec;
-}  // namespace drops::hexapod
-namespace drops::app {
-/// The hexapod "real" robot of e (its hexapod.damage.* keys) as a HexapodSpec (hexapod/robot.hpp).
-/// Throws ConfigError naming the key when the damage is impossible.
+/// The hexapod "real" robot of e (its hexapod.damage.* keys, already range-checked by
+/// io::make_experiment) as a HexapodSpec (hexapod/robot.hpp): the leg removed, the tibia
+/// shortened, the joint blocked. Does not throw; a damage combination the robot cannot have is
+/// reported where the spec is used (make_task_setup: ConfigError; PriorSimulator:
+/// InvalidArgument). Thread-safe.
 hexapod::HexapodSpec real_robot_spec(const io::Experiment& e);
 #endif
 

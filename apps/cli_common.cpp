@@ -1,0 +1,57 @@
+// Shared command-line pieces (cli_common.hpp).
+
+#include "cli_common.hpp"
+
+#include <atomic>
+#include <csignal>
+#include <ctime>
+
+#include "drops/core/errors.hpp"
+
+namespace drops::app {
+namespace {
+
+std::atomic<int> g_interrupts{0};
+
+extern "C" void on_sigint(int) {
+  if (g_interrupts.fetch_add(1) >= 1) {
+    std::signal(SIGINT, SIG_DFL);
+    std::raise(SIGINT);
+  }
+}
+
+}  // namespace
+
+void split_args(const std::vector<std::string>& args, std::string& file,
+                std::vector<std::string>& overrides) {
+  for (const auto& a : args) {
+    if (a.find('=') != std::string::npos) {
+      overrides.push_back(a);
+    } else if (file.empty()) {
+      file = a;
+    } else {
+      throw ConfigError("more than one config file given ('" + file + "' and '" + a +
+                        "'); overrides are written key=value");
+    }
+  }
+}
+
+io::Settings settings_from(const std::string& file, const std::vector<std::string>& overrides) {
+  return file.empty() ? io::load_settings("", overrides) : io::load_settings_file(file, overrides);
+}
+
+std::string local_timestamp() {
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", std::localtime(&t));
+  return buf;
+}
+
+void install_interrupt_handler() {
+  g_interrupts = 0;
+  std::signal(SIGINT, on_sigint);
+}
+
+bool interrupt_requested() { return g_interrupts.load() > 0; }
+
+}  // namespace drops::app
