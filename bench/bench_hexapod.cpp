@@ -1,6 +1,7 @@
 // Hexapod end-to-end costs as data grows (paper §V-B; 48-D state, 18-D action, 7 removed-leg
 // priors):
-//   BM_GpMiLearning/N         one GP-MI model learning (default ModelOptions) on N transitions
+//   BM_GpMiLearning/N         one GP-MI model learning (the model options of `drops run` on the
+//                             hexapod: soft walls, length-scale ratio 10) on N transitions
 //   BM_PolicyOptimization/N/T one policy optimization of 1000 CMA-ES evaluations (1 rollout each,
 //                             H = 40) on the model learned on N transitions, with T threads;
 //                             evals_per_s
@@ -25,6 +26,7 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/core/rng.hpp"
+#include "drops/io/config.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
 #include "hexapod/policy.hpp"
@@ -62,13 +64,22 @@ const std::vector<Transition>& real_data(int transitions) {
   return cache.emplace(transitions, std::move(data)).first->second;
 }
 
+/// The model options a `drops run` of the hexapod uses (the config defaults of task: hexapod, with
+/// their task-dependent values: soft walls on, length-scale ratio 10), so that the benchmark times
+/// what the runs do.
+model::ModelOptions run_model_options() {
+  auto settings = io::load_settings("task: hexapod\n", {});
+  io::resolve_derived_defaults(settings);
+  return io::make_experiment(settings).algo.model;
+}
+
 std::unique_ptr<model::DynamicsModel> make_hexapod_model(const model::ModelOptions& o) {
   return model::make_model(o, std::make_shared<hexapod::HexapodTask>(),
                            std::make_shared<hexapod::HexapodPrior>(),
                            hexapod::HexapodPrior::prior_parameters());
 }
 
-/// Models learned by BM_GpMiLearning (default options), reused by BM_PolicyOptimization.
+/// Models learned by BM_GpMiLearning (run_model_options()), reused by BM_PolicyOptimization.
 std::map<int, std::unique_ptr<model::DynamicsModel>>& learned_models() {
   static std::map<int, std::unique_ptr<model::DynamicsModel>> models;
   return models;
@@ -86,7 +97,7 @@ void BM_GpMiLearning(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const auto& data = real_data(n);
   for (auto _ : state) {
-    auto m = make_hexapod_model({});
+    auto m = make_hexapod_model(run_model_options());
     report(state, m->learn(data));
     learned_models()[n] = std::move(m);
   }
@@ -128,7 +139,7 @@ void BM_PolicyOptimization(benchmark::State& state) {
   const ThreadLimit limit(static_cast<int>(state.range(1)));
   auto& model = learned_models()[n];
   if (!model) {
-    model = make_hexapod_model({});
+    model = make_hexapod_model(run_model_options());
     model->learn(real_data(n));
   }
   optimize_on(state, *model);
@@ -155,7 +166,7 @@ void BM_ModelStep(benchmark::State& state) {
   const auto& data = real_data(n);
   auto& model = learned_models()[n];
   if (!model) {
-    model = make_hexapod_model({});
+    model = make_hexapod_model(run_model_options());
     model->learn(data);
   }
   constexpr int kLanes = 8;  // rollout::RolloutOptions::batch
@@ -184,9 +195,9 @@ BENCHMARK(BM_ModelStep)
     ->Unit(benchmark::kMillisecond);
 
 /// A reduced GP-MI budget: the phi search on at most 120 transitions with 20 inner Rprop
-/// iterations, and a final fit of 100 Rprop iterations (defaults: all data, 50, 300).
+/// iterations, and a final fit of 100 Rprop iterations (runs: all data, 50, 300), else as a run.
 model::ModelOptions fast_options() {
-  model::ModelOptions o;
+  model::ModelOptions o = run_model_options();
   o.gp_mi.max_points = 120;
   o.gp_mi.inner_rprop_iterations = 20;
   o.rprop.max_iterations = 100;
