@@ -173,6 +173,26 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
                       {"phi_evaluations", rec.model.phi_evaluations},
                       {"rprop_iterations", rec.model.rprop_iterations},
                       {"policy_search", rec.random_policy ? "random" : rec.policy_search.BriefReport()}};
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  if (!rec.random_policy) {
+    // Each CMA-ES run (values are returns: the optimizer's values negated) and the selection.
+    nlohmann::json runs = nlohmann::json::array();
+    for (const auto& r : rec.policy_search.runs)
+      runs.push_back({{"lambda", r.lambda},
+                      {"sigma0", r.sigma0},
+                      {"from", r.from_start ? "start" : "random"},
+                      {"regime", r.small ? "small" : "large"},
+                      {"evaluations", r.evaluations},
+                      {"generations", r.generations},
+                      {"best_return", number(-r.best_value)},
+                      {"stop", r.stop_reason}});
+    e["policy_search_runs"] = runs;
+    e["policy_selection"] = {{"selected", rec.selected},
+                             {"candidates", rec.reevaluated_candidates},
+                             {"reevaluated_return", number(rec.reevaluated_return)},
+                             {"start_return", number(-rec.policy_search.start_value)},
+                             {"best_single_return", number(-rec.policy_search.best_value)}};
+  }
   for (std::size_t i = 0; i < metrics.size() && i < setup_.metric_names.size(); ++i)
     e[setup_.metric_names[i]] = std::isfinite(metrics[i]) ? nlohmann::json(metrics[i]) : nlohmann::json(nullptr);
   summary_["episodes"].push_back(e);

@@ -124,8 +124,8 @@ void optimize_on(benchmark::State& state, const model::DynamicsModel& model) {
   for (auto _ : state) {
     const auto s = algo::optimize_policy(task, model, policy, VectorXd::Zero(36), o, 123, nullptr,
                                          &nonfinite);
-    evaluations += s.evaluations;
-    state.counters["predicted_return"] = -s.best_value;
+    evaluations += s.search.evaluations;
+    state.counters["predicted_return"] = s.value;
   }
   state.counters["evals"] = static_cast<double>(evaluations);
   // Model rollouts stopped early by a non-finite (or guarded) prediction: they cost less.

@@ -83,8 +83,8 @@ void BM_PolicyOptimization(benchmark::State& state) {
   for (auto _ : state) {
     const auto summary = algo::optimize_policy(*s.task, *m, *s.pol, VectorXd::Zero(81), s.e.algo,
                                                123, nullptr, nullptr);
-    state.counters["evals"] = static_cast<double>(summary.evaluations);
-    state.counters["predicted_return"] = -summary.best_value;
+    state.counters["evals"] = static_cast<double>(summary.search.evaluations);
+    state.counters["predicted_return"] = summary.value;
   }
 }
 BENCHMARK(BM_PolicyOptimization)->Arg(50)->Arg(100)->Arg(250)->Arg(500)->UseRealTime()->Iterations(1)->Unit(benchmark::kSecond);

@@ -365,6 +365,134 @@ TEST(Cmaes, UncertaintyHandlingOnNoisySphere) {
   EXPECT_GT(sigmas.back(), 1e-6);
 }
 
+// evaluate_start: on a deterministic objective the returned point is never worse than the start,
+// however small the budget; the start is the first evaluation (its own stream) and counted.
+TEST(Cmaes, EvaluatedStartIsNeverBeatenByAWorsePoint) {
+  const int n = 8;
+  int returned_start = 0;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    CmaesOptions opt;
+    opt.sigma0 = 2.0;  // wide samples around a good start: most are worse
+    opt.max_evaluations = 25;
+    opt.evaluate_start = true;
+    opt.seed = seed;
+    const VectorXd x0 = VectorXd::Constant(n, 0.05);
+    std::vector<std::uint64_t> streams;
+    std::mutex mu;
+    const auto s = cmaes_minimize(
+        [&](const VectorXd& x, std::uint64_t stream) {
+          std::lock_guard<std::mutex> lock(mu);
+          streams.push_back(stream);
+          return Rastrigin(x);
+        },
+        x0, VectorXd::Constant(n, -5.0), VectorXd::Constant(n, 5.0), opt);
+    EXPECT_LE(s.best_value, Rastrigin(x0)) << "seed " << seed;
+    EXPECT_EQ(s.start_value, Rastrigin(x0));
+    EXPECT_EQ(s.evaluations, 25);
+    ASSERT_FALSE(streams.empty());
+    EXPECT_EQ(streams.front(), drops::derive_seed(seed, {drops::opt::kCmaesStartStream}));
+    if (BitEqual(s.best_x, x0)) ++returned_start;
+    ASSERT_FALSE(s.best_candidates.empty());
+    EXPECT_TRUE(BitEqual(s.best_candidates.front().x, s.best_x));
+  }
+  EXPECT_GT(returned_start, 10);  // the start was the best point in most searches
+  // Without it the same searches return the best sample, worse than the start.
+  CmaesOptions opt;
+  opt.sigma0 = 2.0;
+  opt.max_evaluations = 25;
+  const VectorXd x0 = VectorXd::Constant(n, 0.05);
+  const auto s = cmaes_minimize([](const VectorXd& x, std::uint64_t) { return Rastrigin(x); }, x0,
+                                VectorXd::Constant(n, -5.0), VectorXd::Constant(n, 5.0), opt);
+  EXPECT_GT(s.best_value, Rastrigin(x0));
+  EXPECT_TRUE(std::isnan(s.start_value));
+}
+
+// Restarts happen when the runs' stopping criteria are on the scale of the objective: Rastrigin's
+// local minima are converged to within tol_fun long before the budget.
+TEST(Cmaes, RestartsHappenOnRastriginWithATolFunOnTheObjectivesScale) {
+  const int n = 10;
+  CmaesOptions opt;
+  opt.sigma0 = 2.0;
+  opt.max_evaluations = 30000;
+  opt.max_restarts = 3;
+  opt.tol_fun = opt.tol_hist_fun = 1e-2;
+  const auto s = cmaes_minimize([](const VectorXd& x, std::uint64_t) { return Rastrigin(x); },
+                                VectorXd::Constant(n, 3.0), VectorXd::Constant(n, -5.0),
+                                VectorXd::Constant(n, 5.0), opt);
+  ASSERT_GE(s.restarts, 3) << s.BriefReport();
+  ASSERT_EQ(s.runs.size(), s.run_stop_reasons.size());
+  long total = 0;
+  for (std::size_t r = 0; r < s.runs.size(); ++r) {
+    const auto& run = s.runs[r];
+    EXPECT_EQ(run.stop_reason, s.run_stop_reasons[r]);
+    EXPECT_NE(run.stop_reason, "MaxFunEvals") << "run " << r;
+    EXPECT_EQ(run.final_mean.size(), n);
+    EXPECT_LE(run.final_mean.cwiseAbs().maxCoeff(), 5.0);
+    EXPECT_GE(run.best_value, s.best_value);
+    total += run.evaluations;
+  }
+  EXPECT_EQ(total, s.evaluations);
+  // With the tutorial's 1e-12 the first run alone would have spent more.
+  EXPECT_LT(s.runs[0].evaluations, 10000);
+}
+
+// On a noisy objective the tolerances never fire; the per-run budget and Stagnation end the runs,
+// restarts begin from the start (small runs) or from random points (large runs) under kMixed.
+TEST(Cmaes, PerRunBudgetAndStagnationRestartANoisySearch) {
+  const int n = 6;
+  auto noisy = [](const VectorXd& x, std::uint64_t stream) {
+    drops::Rng r(stream);
+    return Sphere(x) + 0.5 * r.normal();
+  };
+  CmaesOptions opt;
+  opt.sigma0 = 1.0;
+  opt.max_evaluations = 12000;
+  opt.max_run_evaluations = 3000;
+  opt.max_restarts = 2;
+  opt.restart_start = drops::opt::CmaesRestartStart::kMixed;
+  opt.seed = 3;
+  const VectorXd x0 = VectorXd::Constant(n, 1.0);
+  const auto s = cmaes_minimize(noisy, x0, VectorXd::Constant(n, -4.0), VectorXd::Constant(n, 4.0),
+                                opt);
+  ASSERT_GE(s.runs.size(), 3u) << s.BriefReport();
+  bool stagnation = false, run_budget = false, small_from_start = false, large_from_random = false;
+  for (std::size_t r = 0; r < s.runs.size(); ++r) {
+    const auto& run = s.runs[r];
+    EXPECT_LE(run.evaluations, 3000) << "run " << r;
+    stagnation |= run.stop_reason == "Stagnation";
+    run_budget |= run.stop_reason == "MaxRunEvals" || run.stop_reason == "RunBudget";
+    if (r > 0 && run.small) small_from_start |= run.from_start;
+    if (r > 0 && !run.small) large_from_random |= !run.from_start;
+    if (r > 0) EXPECT_EQ(run.from_start, run.small) << "run " << r;
+  }
+  EXPECT_TRUE(stagnation) << s.BriefReport();
+  EXPECT_TRUE(run_budget) << s.BriefReport();
+  EXPECT_TRUE(small_from_start);
+  EXPECT_TRUE(large_from_random);
+}
+
+TEST(Cmaes, KeepBestListsTheBestDistinctPointsInOrder) {
+  CmaesOptions opt;
+  opt.sigma0 = 0.5;
+  opt.max_evaluations = 300;
+  opt.keep_best = 7;
+  std::vector<std::pair<double, VectorXd>> all;
+  std::mutex mu;
+  const auto s = cmaes_minimize(
+      [&](const VectorXd& x, std::uint64_t) {
+        std::lock_guard<std::mutex> lock(mu);
+        all.emplace_back(Sphere(x), x);
+        return Sphere(x);
+      },
+      VectorXd::Constant(4, 1.0), Unbounded(4, -1), Unbounded(4, 1), opt);
+  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  ASSERT_EQ(s.best_candidates.size(), 7u);
+  for (std::size_t k = 0; k < 7; ++k) {
+    EXPECT_EQ(s.best_candidates[k].value, all[k].first) << k;
+    EXPECT_TRUE(BitEqual(s.best_candidates[k].x, all[k].second)) << k;
+  }
+}
+
 TEST(Cmaes, NonFiniteValuesAreWorst) {
   CmaesOptions opt;
   opt.sigma0 = 0.5;

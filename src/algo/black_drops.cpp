@@ -17,7 +17,7 @@ double seconds_since(Clock::time_point t0) {
 
 // Stream tags: each random stream of a run is derive_seed(seed, {episode, tag, ...}).
 enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPolicy = 3,
-                                 kPredicted = 4 };
+                                 kPredicted = 4, kReevaluation = 5 };
 
 }  // namespace
 
@@ -30,6 +30,8 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   if (!(theta_bound > 0)) return fail("theta_bound must be > 0");
   if (prior_optimizations < 1) return fail("prior_optimizations must be >= 1");
   if (predicted_rollouts < 1) return fail("predicted_rollouts must be >= 1");
+  if (reevaluation_rollouts < 1) return fail("reevaluation_rollouts must be >= 1");
+  if (reevaluation_candidates < 1) return fail("reevaluation_candidates must be >= 1");
   if (rollouts.rollouts < 1) return fail("rollouts.rollouts must be >= 1");
   if (rollouts.batch < 1) return fail("rollouts.batch must be >= 1");
   std::string w;
@@ -38,17 +40,21 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   return true;
 }
 
-opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
-                                  const policy::Policy& policy, const VectorXd& theta0,
-                                  const BlackDropsOptions& options, std::uint64_t seed,
-                                  const std::function<bool(const opt::CmaesProgress&)>& on_gen,
-                                  long* nonfinite_steps) {
+PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
+                                   const policy::Policy& policy, const VectorXd& theta0,
+                                   const BlackDropsOptions& options, std::uint64_t seed,
+                                   const std::function<bool(const opt::CmaesProgress&)>& on_gen,
+                                   long* nonfinite_steps) {
   const int n = policy.param_dim();
+  check_size("optimize_policy: theta0 vs policy parameters", n, theta0.size());
   const VectorXd lower = VectorXd::Constant(n, -options.theta_bound);
   const VectorXd upper = VectorXd::Constant(n, options.theta_bound);
   opt::CmaesOptions co = options.cmaes;
   co.seed = seed;
   if (co.sigma0 <= 0) co.sigma0 = options.theta_bound;  // settings.md §5: sigma0 = b
+  co.evaluate_start = options.keep_start_point;
+  const bool reevaluate = options.selection == PolicySelection::kReevaluate;
+  if (reevaluate) co.keep_best = std::max(co.keep_best, options.reevaluation_candidates);
   rollout::RolloutStats stats;
   auto objective = [&](const std::vector<VectorXd>& xs, const std::vector<std::uint64_t>& streams,
                        std::vector<double>& values) {
@@ -58,23 +64,45 @@ opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::Dynami
     for (std::size_t k = 0; k < xs.size(); ++k) values[k] = -returns[static_cast<Eigen::Index>(k)];
   };
   const VectorXd start = theta0.cwiseMax(lower).cwiseMin(upper);
-  auto summary = opt::cmaes_minimize_batch(objective, start, lower, upper, co, on_gen);
-  if (!options.keep_start_point) {
-    if (nonfinite_steps) *nonfinite_steps += stats.nonfinite_steps;
-    return summary;
-  }
-  // CMA-ES samples around the start point but never evaluates it, and with sigma0 = b it may end
-  // in a worse optimum than the best policy so far: keep the start when it scores better.
-  std::vector<double> start_value;
-  objective({start}, {derive_seed(seed, {0xC0FFEE})}, start_value);
-  ++summary.evaluations;
-  if (start_value[0] < summary.best_value) {
-    summary.best_x = start;
-    summary.best_value = start_value[0];
-    summary.run_stop_reasons.push_back("StartPointKept");
+  PolicySearchResult result;
+  result.search = opt::cmaes_minimize_batch(objective, start, lower, upper, co, on_gen);
+  const opt::CmaesSummary& cs = result.search;
+  auto same = [](const VectorXd& a, const VectorXd& b) { return (a.array() == b.array()).all(); };
+  if (!reevaluate) {
+    result.theta = cs.best_x;
+    result.value = -cs.best_value;
+    result.selected = options.keep_start_point && same(cs.best_x, start) ? "start" : "best_seen";
+  } else {
+    // The short list, without repeats: the start, the best single evaluations, the runs' means.
+    std::vector<VectorXd> list;
+    std::vector<std::string> origin;
+    auto add = [&](const VectorXd& x, const char* from) {
+      if (x.size() != n || !x.allFinite()) return;
+      for (const auto& y : list)
+        if (same(x, y)) return;
+      list.push_back(x);
+      origin.emplace_back(from);
+    };
+    if (options.keep_start_point) add(start, "start");
+    for (const auto& c : cs.best_candidates) add(c.x, "best_seen");
+    for (const auto& r : cs.runs) add(r.final_mean, "run_mean");
+    // Common random numbers: every candidate gets the same rollout streams, so that the
+    // differences between candidates are not drowned in the rollouts' own noise.
+    rollout::RolloutOptions ro = options.rollouts;
+    ro.rollouts = options.reevaluation_rollouts;
+    const std::vector<std::uint64_t> streams(list.size(), derive_seed(seed, {kReevaluation}));
+    VectorXd means;
+    rollout::evaluate_policies(task, model, policy, list, streams, ro, means, &stats);
+    Eigen::Index best = 0;
+    for (Eigen::Index k = 1; k < means.size(); ++k)
+      if (means[k] > means[best] || (std::isnan(means[best]) && !std::isnan(means[k]))) best = k;
+    result.theta = list[static_cast<std::size_t>(best)];
+    result.value = means[best];
+    result.selected = origin[static_cast<std::size_t>(best)];
+    result.candidates = static_cast<int>(list.size());
   }
   if (nonfinite_steps) *nonfinite_steps += stats.nonfinite_steps;
-  return summary;
+  return result;
 }
 
 BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
@@ -162,6 +190,8 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       rec.theta.resize(n);
       for (int i = 0; i < n; ++i) rec.theta[i] = rng.uniform(-options.theta_bound, options.theta_bound);
       rec.random_policy = true;
+      rec.selected = "random";
+      rec.reevaluated_return = std::numeric_limits<double>::quiet_NaN();
     } else {
       VectorXd theta0;
       if (best_theta.size()) {
@@ -172,16 +202,24 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         for (int i = 0; i < n; ++i) theta0[i] = rng.uniform(-options.theta_bound, options.theta_bound);
       }
       const int runs = episode == 1 ? options.prior_optimizations : 1;
+      double chosen_value = -std::numeric_limits<double>::infinity();
       for (int run = 0; run < runs && !interrupted_search; ++run) {
         auto s = optimize_policy(*task, *planning_model, policy, theta0, options,
                                  derive_seed(options.seed, {ep, kPolicySearch,
                                                             static_cast<std::uint64_t>(run)}),
                                  on_gen, &rec.nonfinite_model_steps);
-        rec.evaluations += s.evaluations;
-        if (run == 0 || s.best_value < rec.policy_search.best_value) rec.policy_search = s;
-        theta0 = rec.policy_search.best_x;
+        rec.evaluations += s.search.evaluations;
+        if (run == 0 || s.value > chosen_value) {
+          chosen_value = s.value;
+          rec.policy_search = std::move(s.search);
+          rec.theta = std::move(s.theta);
+          rec.selected = s.selected;
+          rec.reevaluated_candidates = s.candidates;
+          rec.reevaluated_return = s.candidates > 0 ? s.value
+                                                    : std::numeric_limits<double>::quiet_NaN();
+        }
+        theta0 = rec.theta;
       }
-      rec.theta = rec.policy_search.best_x;
     }
     rec.policy_seconds = seconds_since(t_policy);
     if (interrupted_search) {

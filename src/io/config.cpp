@@ -138,7 +138,21 @@ std::vector<KeySpec> build_schema() {
   add({"optimizer.max_evaluations", "int", "", 10, 100000000, {}, "-",
        "CMA-ES policy evaluations per optimization, all restarts (empty = 10000 for the pendubot, "
        "2000 for the hexapod, whose rollouts cost about 50 times more)"});
-  add({"optimizer.restarts", "int", "3", 0, 100, {}, "-", "BIPOP restarts after the first run"});
+  add({"optimizer.run_evaluations", "int", "", 0, 100000000, {}, "-",
+       "CMA-ES evaluations of one run before it restarts (empty = 2500 for the pendubot, 1000 for the "
+       "hexapod; 0 = no per-run budget): with a noisy objective the tolerances rarely end a run, so "
+       "this is what makes restarts happen"});
+  add({"optimizer.restarts", "int", "3", 0, 100, {}, "-",
+       "large-population (IPOP) restarts after the first run; BIPOP's small runs come in between"});
+  add({"optimizer.restart_from", "enum", "mixed", 0, 0, {"mixed", "random", "start"}, "-",
+       "where restarts begin: mixed = BIPOP's small (local) runs from the start policy and its large "
+       "runs from random points; random = every restart from a random point (Hansen 2009); start = "
+       "every restart from the start policy"});
+  add({"optimizer.tol_fun", "double", "0.01", 0, 1e6, {}, "return",
+       "a run stops when its best returns of the last 10 + 30n/lambda generations (TolHistFun), or "
+       "those and all of the last generation's (TolFun), lie within this range"});
+  add({"optimizer.stagnation", "bool", "true", 0, 0, {}, "-",
+       "a run stops when its best and median returns stopped improving (Hansen 2009's Stagnation)"});
   add({"optimizer.lambda", "int", "0", 0, 100000, {}, "-",
        "population size of the first run (0 = 4 + floor(3 ln n), 17 for 81 parameters)"});
   add({"optimizer.sigma0", "double", "0", 0, 1000, {}, "-", "initial step size (0 = policy.bound)"});
@@ -147,9 +161,20 @@ std::vector<KeySpec> build_schema() {
   add({"optimizer.bipop", "bool", "true", 0, 0, {}, "-", "BIPOP restarts (false = IPOP)"});
   add({"optimizer.uncertainty_handling", "bool", "false", 0, 0, {}, "-",
        "Hansen et al. 2009 uncertainty handling for the noisy rollout objective"});
-  add({"optimizer.keep_start", "bool", "false", 0, 0, {}, "-",
-       "also evaluate the start point (the best real episode's policy) on the model and run it again "
-       "when no candidate beats it; off in the paper (a deterministic system then gives no new data)"});
+  add({"optimizer.keep_start", "bool", "true", 0, 0, {}, "-",
+       "the best policy so far is the start and a candidate: each search starts from the policy of "
+       "the best real episode, evaluates it on the current model like any candidate and runs it again "
+       "unless a candidate beats it (as the reference's CMA-ES wrapper); false = the start only "
+       "centres the first CMA-ES run"});
+  add({"optimizer.selection", "enum", "reevaluate", 0, 0, {"reevaluate", "best_seen"}, "-",
+       "which evaluated policy is run: reevaluate = the best mean return when the start, the best "
+       "evaluated policies and each run's final mean are re-evaluated with many rollouts (robust to "
+       "lucky rollouts); best_seen = the best single evaluation (the paper's reference)"});
+  add({"optimizer.reevaluation_rollouts", "int", "50", 1, 100000, {}, "-",
+       "selection reevaluate: rollouts per re-evaluated policy (common random numbers)"});
+  add({"optimizer.reevaluation_candidates", "int", "10", 1, 10000, {}, "-",
+       "selection reevaluate: best distinct evaluated policies re-evaluated (besides the start and "
+       "the runs' final means)"});
   add({"optimizer.prior_optimizations", "int", "2", 1, 100, {}, "-",
        "with a prior: successive optimizations on the prior alone for episode 1"});
   add({"rollouts.count", "int", "1", 1, 10000, {}, "-",
@@ -403,6 +428,7 @@ void resolve_derived_defaults(Settings& settings) {
   const std::pair<const char*, const char*> derived[] = {
       {"policy.bound", hexapod ? "0.5" : "5"},
       {"optimizer.max_evaluations", hexapod ? "2000" : "10000"},
+      {"optimizer.run_evaluations", hexapod ? "1000" : "2500"},
       {"model.rprop.max_length_scale_ratio", hexapod ? "10" : "100"},
   };
   for (const auto& [key, value] : derived) {
@@ -519,6 +545,13 @@ Experiment make_experiment(const Settings& settings) {
   a.model.mi.xtol_rel = a.model.mi.ftol_rel = dbl("model.mi.tolerance");
   a.cmaes.max_evaluations = integer("optimizer.max_evaluations");
   a.cmaes.max_restarts = static_cast<int>(integer("optimizer.restarts"));
+  a.cmaes.max_run_evaluations = integer("optimizer.run_evaluations");
+  const std::string restart_from = str("optimizer.restart_from");
+  a.cmaes.restart_start = restart_from == "random"  ? opt::CmaesRestartStart::kRandom
+                          : restart_from == "start" ? opt::CmaesRestartStart::kStart
+                                                    : opt::CmaesRestartStart::kMixed;
+  a.cmaes.tol_fun = a.cmaes.tol_hist_fun = dbl("optimizer.tol_fun");
+  a.cmaes.stagnation = boolean("optimizer.stagnation");
   a.cmaes.lambda = static_cast<int>(integer("optimizer.lambda"));
   a.cmaes.sigma0 = dbl("optimizer.sigma0");
   a.cmaes.elitism = boolean("optimizer.elitism");
@@ -527,6 +560,10 @@ Experiment make_experiment(const Settings& settings) {
   a.cmaes.uncertainty_handling = boolean("optimizer.uncertainty_handling");
   a.prior_optimizations = static_cast<int>(integer("optimizer.prior_optimizations"));
   a.keep_start_point = boolean("optimizer.keep_start");
+  a.selection = str("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
+                                                          : algo::PolicySelection::kReevaluate;
+  a.reevaluation_rollouts = static_cast<int>(integer("optimizer.reevaluation_rollouts"));
+  a.reevaluation_candidates = static_cast<int>(integer("optimizer.reevaluation_candidates"));
   a.rollouts.rollouts = static_cast<int>(integer("rollouts.count"));
   a.rollouts.clip = dbl("rollouts.clip");
   a.rollouts.batch = static_cast<int>(integer("rollouts.batch"));

@@ -286,19 +286,77 @@ struct Search {
       summary.best_value = value;
       summary.best_x = pheno;
     }
+    // The keep_best best distinct points, sorted (a point evaluated twice keeps its better value).
+    auto& best = summary.best_candidates;
+    const auto keep = static_cast<std::size_t>(options.keep_best);
+    if (best.size() >= keep && !(value < best.back().value)) return;
+    for (auto it = best.begin(); it != best.end(); ++it) {
+      if (it->x.size() == pheno.size() && (it->x.array() == pheno.array()).all()) {
+        if (!(value < it->value)) return;
+        best.erase(it);
+        break;
+      }
+    }
+    const auto pos = std::upper_bound(best.begin(), best.end(), value,
+                                      [](double v, const CmaesCandidate& c) { return v < c.value; });
+    best.insert(pos, CmaesCandidate{pheno, value});
+    if (best.size() > keep) best.pop_back();
   }
 
-  // One CMA-ES run; returns its stop reason and sets global_stop / termination when the whole
-  // search must end. run_evals receives the evaluations used by the run.
-  std::string run(int run_index, int lambda, double sigma, const VectorXd& start, long run_budget,
-                  long& run_evals);
+  // x0 as evaluated when options.evaluate_start (its value is the start_value of the summary).
+  bool start_evaluated = false;
+  VectorXd start_pheno;
+
+  // One CMA-ES run from `start` (x0 when from_start); returns its stop reason and sets
+  // global_stop / termination when the whole search must end. record receives the run's counts.
+  std::string run(int run_index, int lambda, double sigma, const VectorXd& start, bool from_start,
+                  long run_budget, const char* budget_reason, CmaesRun& record);
 };
 
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t k = v.size() / 2;
+  return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
+}
+
+// Hansen 2009's Stagnation test on the run's per-generation best and median values.
+bool stagnated(const std::vector<double>& best, const std::vector<double>& median, int n,
+               int lambda) {
+  const std::size_t gens = best.size();
+  const auto min_len = static_cast<std::size_t>(120.0 + std::ceil(30.0 * n / lambda));
+  if (gens < min_len) return false;
+  const std::size_t len =
+      std::min<std::size_t>(20000, std::max(min_len, static_cast<std::size_t>(0.2 * gens)));
+  const std::size_t part = std::max<std::size_t>(1, static_cast<std::size_t>(0.3 * len));
+  auto first = [&](const std::vector<double>& h) {
+    return median_of(std::vector<double>(h.end() - len, h.end() - len + part));
+  };
+  auto last = [&](const std::vector<double>& h) {
+    return median_of(std::vector<double>(h.end() - part, h.end()));
+  };
+  return last(best) >= first(best) && last(median) >= first(median);
+}
+
 std::string Search::run(int run_index, int lambda, double sigma, const VectorXd& start,
-                        long run_budget, long& run_evals) {
+                        bool from_start, long run_budget, const char* budget_reason,
+                        CmaesRun& record) {
   const Params p = make_params(n, lambda, options.active);
   const double sigma_start = sigma;
   VectorXd m = box.inverse(start);
+  long& run_evals = record.evaluations;
+  record.lambda = lambda;
+  record.sigma0 = sigma;
+  record.from_start = from_start;
+  record.evaluations = 0;
+  record.generations = 0;
+  record.best_value = kInf;
+  // The distribution mean in the box whenever the run stops.
+  struct MeanOnExit {
+    const Box& box;
+    const VectorXd& m;
+    CmaesRun& record;
+    ~MeanOnExit() { record.final_mean = box.transform(m); }
+  } mean_on_exit{box, m, record};
   VectorXd ps = VectorXd::Zero(n), pc = VectorXd::Zero(n);
   MatrixXd C = MatrixXd::Identity(n, n), B = MatrixXd::Identity(n, n);
   MatrixXd inv_sqrt_c = MatrixXd::Identity(n, n);
@@ -306,10 +364,17 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
   int last_eigen_gen = 0;
   run_evals = 0;
 
-  // Best of this run (genotype, phenotype, value), for elitism.
+  // Best of this run (genotype, phenotype, value), for elitism; x0 when evaluated and started from.
   bool run_has_best = false;
   VectorXd run_best_geno, run_best_pheno;
   double run_best_value = kInf;
+  if (from_start && start_evaluated) {
+    run_has_best = true;
+    run_best_geno = m;
+    run_best_pheno = start_pheno;
+    run_best_value = summary.start_value;
+  }
+  std::vector<double> hist_gen_best, hist_gen_median;  // per generation, for Stagnation
 
   const int hist_len = 10 + static_cast<int>(std::ceil(30.0 * n / lambda));
   std::deque<double> hist_best;
@@ -332,7 +397,7 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
       summary.termination = CmaesTermination::kMaxEvaluations;
       return "MaxFunEvals";
     }
-    if (run_evals + lambda > run_budget) return "RunBudget";  // small BIPOP run
+    if (run_evals + lambda > run_budget) return budget_reason;
 
     // Lazy eigendecomposition of C.
     if (gen - last_eigen_gen >= p.eigen_gap && gen > 0) {
@@ -360,9 +425,13 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
     const int count = static_cast<int>(std::min<long>(lambda, remaining));
     evaluate(pheno, count, 0, run_index, gen, f);
     run_evals += count;
-    for (int k = 0; k < count; ++k) offer_global(pheno[k], f[k]);
+    for (int k = 0; k < count; ++k) {
+      offer_global(pheno[k], f[k]);
+      record.best_value = std::min(record.best_value, f[k]);
+    }
     if (count < lambda) {
       ++summary.generations;
+      ++record.generations;
       report(sigma, lambda);  // the search ends here whatever the answer
       global_stop = true;
       summary.termination = CmaesTermination::kMaxEvaluations;
@@ -374,12 +443,16 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
       std::vector<VectorXd> re(pheno.begin(), pheno.begin() + nre);
       evaluate(re, nre, lambda, run_index, gen, f2);
       run_evals += nre;
-      for (int k = 0; k < nre; ++k) offer_global(pheno[k], f2[k]);
+      for (int k = 0; k < nre; ++k) {
+        offer_global(pheno[k], f2[k]);
+        record.best_value = std::min(record.best_value, f2[k]);
+      }
       s_uncertainty = uncertainty_measure(f, f2);
       for (int k = 0; k < nre; ++k) fr[k] = 0.5 * (f[k] + f2[k]);
     }
     if (has_best && summary.best_value <= options.stop_fitness) {
       ++summary.generations;
+      ++record.generations;
       report(sigma, lambda);  // the search ends here whatever the answer
       global_stop = true;
       summary.termination = CmaesTermination::kStopFitness;
@@ -461,6 +534,7 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
     if (fs[0] == fs[k_flat]) sigma *= std::exp(0.2 + p.cs / p.damps);
 
     ++summary.generations;
+    ++record.generations;
     if (!report(sigma, lambda)) {
       global_stop = true;
       summary.termination = CmaesTermination::kCallback;
@@ -485,6 +559,10 @@ std::string Search::run(int run_index, int lambda, double sigma, const VectorXd&
       return "TolHistFun";
     if (std::count(hist_equal.begin(), hist_equal.end(), true) * 3 > equal_len)
       return "EqualFunVals";
+    hist_gen_best.push_back(fs.front());
+    hist_gen_median.push_back(fs[fs.size() / 2]);
+    if (options.stagnation && stagnated(hist_gen_best, hist_gen_median, n, lambda))
+      return "Stagnation";
     const VectorXd sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
     if ((sigma * sd.array() < options.tol_x).all() &&
         (sigma * pc.array().abs() < options.tol_x).all())
@@ -513,6 +591,10 @@ bool CmaesOptions::IsValid(std::string* why) const {
     return fail("lambda = " + std::to_string(lambda) + ": expected >= 2 (0 = default)");
   if (max_evaluations < 1)
     return fail("max_evaluations = " + std::to_string(max_evaluations) + ": expected >= 1");
+  if (max_run_evaluations < 0)
+    return fail("max_run_evaluations = " + std::to_string(max_run_evaluations) +
+                ": expected >= 0 (0 = no per-run budget)");
+  if (keep_best < 1) return fail("keep_best = " + std::to_string(keep_best) + ": expected >= 1");
   if (max_restarts < 0)
     return fail("max_restarts = " + std::to_string(max_restarts) + ": expected >= 0");
   if (!(tol_x >= 0.0)) return fail("tol_x = " + fmt(tol_x) + ": expected >= 0");
@@ -581,6 +663,22 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
   CmaesSummary& summary = search.summary;
   summary.best_x = x0;
   summary.best_value = kInf;
+  if (options.evaluate_start) {
+    std::vector<double> v;
+    if (batch) {
+      (*batch)({x0}, {derive_seed(options.seed, {kCmaesStartStream})}, v);
+      if (v.size() != 1)
+        throw InvalidArgument("cmaes_minimize_batch: objective returned " +
+                              std::to_string(v.size()) + " values for 1 candidate");
+    } else {
+      v.assign(1, (*objective)(x0, derive_seed(options.seed, {kCmaesStartStream})));
+    }
+    summary.evaluations = 1;
+    summary.start_value = sanitize(v[0]);
+    search.start_evaluated = true;
+    search.start_pheno = x0;
+    search.offer_global(x0, summary.start_value);
+  }
 
   long budget_large = 0, budget_small = 0, last_large_evals = 0;
   long lambda_large = lambda_def;
@@ -594,20 +692,35 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
     long lambda = lambda_def;
     double sigma = sigma_def;
     VectorXd start = x0;
-    long run_budget = std::numeric_limits<long>::max();
+    const long run_cap = options.max_run_evaluations > 0 ? options.max_run_evaluations
+                                                         : std::numeric_limits<long>::max();
+    long run_budget = run_cap;
+    const char* budget_reason = "MaxRunEvals";
     bool small = false;
+    bool from_start = true;
     if (r > 0) {
       summary.restarts = r;
+      // The uniform point is drawn for every restart, so that the random stream does not depend on
+      // restart_start.
+      VectorXd uniform = x0;
       for (long i = 0; i < n; ++i)
         if (std::isfinite(lower(i)) && std::isfinite(upper(i)))
-          start(i) = search.rng.uniform(lower(i), upper(i));
-      if (options.bipop && budget_small < budget_large) {
-        small = true;
+          uniform(i) = search.rng.uniform(lower(i), upper(i));
+      small = options.bipop && budget_small < budget_large;
+      from_start = options.restart_start == CmaesRestartStart::kStart ||
+                   (options.restart_start == CmaesRestartStart::kMixed && small);
+      if (!from_start) start = uniform;
+      if (small) {
         const double u = search.rng.uniform();
         lambda = std::max(2L, static_cast<long>(std::floor(
                                   lambda_def * std::pow(0.5 * lambda_large / lambda_def, u * u))));
         sigma = sigma_def * std::pow(10.0, -2.0 * u);
         run_budget = std::max(lambda, last_large_evals / 2);
+        if (run_budget < run_cap) {
+          budget_reason = "RunBudget";
+        } else {
+          run_budget = run_cap;
+        }
       } else {
         ++large_restarts;
         lambda_large =
@@ -618,10 +731,14 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
     // A population larger than the remaining budget could not be evaluated anyway; the hard cap
     // only guards memory and int conversions for absurd budgets.
     lambda = std::max(2L, std::min({lambda, remaining, 1L << 24}));
-    long run_evals = 0;
-    const std::string reason =
-        search.run(r, static_cast<int>(lambda), sigma, start, run_budget, run_evals);
+    CmaesRun record;
+    record.small = small;
+    const std::string reason = search.run(r, static_cast<int>(lambda), sigma, start, from_start,
+                                          run_budget, budget_reason, record);
+    record.stop_reason = reason;
+    const long run_evals = record.evaluations;
     summary.run_stop_reasons.push_back(reason);
+    summary.runs.push_back(std::move(record));
     if (small) {
       budget_small += run_evals;
     } else {

@@ -16,6 +16,16 @@
 
 namespace drops::algo {
 
+/// How the policy search picks the policy it returns among the points it evaluated.
+enum class PolicySelection {
+  /// The best single evaluation (the paper's reference; with 1 rollout per evaluation on a noisy
+  /// model this favours lucky draws).
+  kBestSeen,
+  /// Re-evaluate a short list (the start, the best distinct evaluated points, each CMA-ES run's
+  /// final mean) with many rollouts on common random numbers and return the best mean.
+  kReevaluate,
+};
+
 /// Options of Algorithm 1. Defaults follow settings.md §1 and §5.
 struct BlackDropsOptions {
   int episodes = 10;              ///< real episodes in total, including the first one, >= 1
@@ -27,10 +37,19 @@ struct BlackDropsOptions {
   /// With a prior: number of successive optimizations on the prior alone for episode 1 (the second
   /// restarts from the first's best), >= 1. The reference did 2.
   int prior_optimizations = 2;
-  /// Also evaluate the optimizer's start point (the best real episode's theta) on the model and keep
-  /// it when no candidate beats it. Off in the paper: on a deterministic system, running the same
-  /// policy again brings no new data, and a run can stall on it for many episodes.
-  bool keep_start_point = false;
+  /// The best policy so far is the start and a candidate: each search starts from the policy of the
+  /// best real episode (episode 1: from the previous prior optimization), evaluates it on the
+  /// current model like any candidate, and returns it unless something evaluated beats it, so the
+  /// returned policy is never worse on the model than the start (as in the reference's CMA-ES
+  /// wrapper). False: the start only centres the first CMA-ES run.
+  bool keep_start_point = true;
+  /// How the returned policy is chosen among the evaluated ones.
+  PolicySelection selection = PolicySelection::kReevaluate;
+  /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1).
+  int reevaluation_rollouts = 50;
+  /// kReevaluate: best distinct evaluated points re-evaluated, besides the start and the runs'
+  /// final means (>= 1).
+  int reevaluation_candidates = 10;
   /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy.
   int predicted_rollouts = 20;
   /// Returns true when every field is valid; otherwise false and the reason in *why.
@@ -51,6 +70,12 @@ struct EpisodeRecord {
   VectorXd phi;                     ///< prior parameters of the model that chose the policy
   model::ModelSummary model;        ///< the learning that preceded this episode (empty for ep. 1)
   opt::CmaesSummary policy_search;  ///< the optimization that chose theta
+  /// Where theta came from: "start" (the start policy was kept), "best_seen" (a best single
+  /// evaluation), "run_mean" (a CMA-ES run's final mean), "random" (episode 1 without a prior).
+  std::string selected;
+  /// kReevaluate: the chosen policy's mean return over the re-evaluation rollouts (NaN otherwise).
+  double reevaluated_return = 0;
+  int reevaluated_candidates = 0;   ///< kReevaluate: size of the short list
   double model_seconds = 0;         ///< model learning time before this episode, s
   double policy_seconds = 0;        ///< policy optimization time, s
   long evaluations = 0;             ///< policy evaluations (model rollouts / rollouts per eval)
@@ -118,15 +143,26 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const BlackDropsCallbacks& callbacks = {},
                                   const BlackDropsState* resume = nullptr);
 
-/// Maximises the mean model return over theta in [-b, b]^n with BIPOP-aCMA-ES starting from
-/// theta0 (clamped into the box). With options.keep_start_point, theta0 itself is also evaluated and
-/// returned when no candidate beats it (run_stop_reasons then ends with "StartPointKept"; the
-/// evaluations include the start point's). Returns the CMA-ES summary (best_value is the NEGATED
-/// best return). Exposed for benchmarks and tests.
-opt::CmaesSummary optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
-                                  const policy::Policy& policy, const VectorXd& theta0,
-                                  const BlackDropsOptions& options, std::uint64_t seed,
-                                  const std::function<bool(const opt::CmaesProgress&)>& on_gen,
-                                  long* nonfinite_steps);
+/// What optimize_policy chose and how.
+struct PolicySearchResult {
+  opt::CmaesSummary search;  ///< the CMA-ES search (best_x / best_value: its best single evaluation)
+  VectorXd theta;            ///< the returned policy parameters (dim n, inside the box)
+  /// The returned policy's value on the model: with kReevaluate the mean return of the
+  /// re-evaluation rollouts, else its single evaluation's return (not negated).
+  double value = 0;
+  std::string selected;      ///< "start", "best_seen" or "run_mean" (see EpisodeRecord::selected)
+  int candidates = 0;        ///< kReevaluate: size of the short list (0 otherwise)
+};
+
+/// Maximises the mean model return (paper §IV-C) over theta in [-b, b]^n with BIPOP-aCMA-ES
+/// starting from theta0 (dim n, clamped into the box), then selects the returned policy per
+/// options.selection. With options.keep_start_point, theta0 is evaluated first and is a candidate
+/// like any other. Deterministic for a given seed whatever the thread count. Throws
+/// InvalidArgument on size mismatch. Exposed for benchmarks and tests.
+PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
+                                   const policy::Policy& policy, const VectorXd& theta0,
+                                   const BlackDropsOptions& options, std::uint64_t seed,
+                                   const std::function<bool(const opt::CmaesProgress&)>& on_gen,
+                                   long* nonfinite_steps);
 
 }  // namespace drops::algo

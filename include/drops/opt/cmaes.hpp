@@ -9,10 +9,20 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace drops::opt {
+
+/// Where the restarts of a search begin (the first run always starts at x0).
+enum class CmaesRestartStart {
+  kRandom,  ///< every restart from a uniform point of the box (Hansen 2009)
+  kStart,   ///< every restart from x0
+  /// BIPOP's two regimes split the work: the small-population runs (small step sizes: local
+  /// searches) start from x0, the large-population runs (global searches) from uniform points.
+  kMixed,
+};
 
 /// Options of Cmaes. Every field has a usable default.
 struct CmaesOptions {
@@ -23,6 +33,19 @@ struct CmaesOptions {
   int lambda = 0;
   /// Total budget of objective evaluations over all restarts (>= 1).
   long max_evaluations = 10000;
+  /// Budget of one run (>= 0; 0 = only the total budget applies). A run that would exceed it stops
+  /// ("MaxRunEvals") and the search restarts, so restarts happen even when no tolerance fires (e.g.
+  /// on a noisy objective). The small BIPOP runs keep their own, smaller budget.
+  long max_run_evaluations = 0;
+  /// Evaluate x0 first (one evaluation, counted) and treat it as the best seen of every run that
+  /// starts from x0: elitism re-injects it until a sample beats it, and the search returns it when
+  /// nothing evaluated is better. CmaesSummary::start_value holds its value.
+  bool evaluate_start = false;
+  /// Where restarts begin (kRandom as in Hansen 2009).
+  CmaesRestartStart restart_start = CmaesRestartStart::kRandom;
+  /// Number of best distinct evaluated points reported in CmaesSummary::best_candidates (>= 1), e.g.
+  /// for a re-evaluation that picks the best mean of a noisy objective.
+  int keep_best = 1;
   /// Maximum number of restarts after the first run (>= 0). BIPOP alternates large populations
   /// (lambda doubling) and small ones (Hansen 2009). As in Hansen's reference (pycma), this counts
   /// the large-population (IPOP, lambda doubling) restarts only: the small-population runs that
@@ -51,6 +74,11 @@ struct CmaesOptions {
   double tol_fun = 1e-12;        ///< stop when the range of recent best values is < tol_fun
   double tol_hist_fun = 1e-12;   ///< stop when the range of the best values over 10 + 30n/lambda generations < it
   double max_condition = 1e14;   ///< stop when cond(C) exceeds it (ConditionCov)
+  /// Hansen 2009's Stagnation criterion: over the last 20 % of the generations (at least
+  /// 120 + 30 n / lambda), the medians of the most recent 30 % of the generations' best and median
+  /// values are both no better than those of the first 30 %. Fires on noisy objectives, where the
+  /// tolerances above do not.
+  bool stagnation = true;
   /// Stop the whole search as soon as a value <= this is reached (minimisation).
   double stop_fitness = -1e300;
   /// Seed of the optimizer's own random stream (sampling of candidates).
@@ -69,6 +97,25 @@ enum class CmaesTermination {
   kCallback,         ///< the user callback asked to stop
 };
 
+/// One CMA-ES run of a search (the first run or a restart).
+struct CmaesRun {
+  int lambda = 0;              ///< population size
+  double sigma0 = 0;           ///< initial step size
+  bool from_start = true;      ///< started from x0 (else from a uniform point of the box)
+  bool small = false;          ///< a small-population BIPOP run
+  long evaluations = 0;        ///< objective evaluations of this run
+  int generations = 0;         ///< generations of this run
+  double best_value = 0;       ///< best value evaluated in this run (+inf if none)
+  Eigen::VectorXd final_mean;  ///< the distribution mean when the run stopped, inside the bounds
+  std::string stop_reason;     ///< as in CmaesSummary::run_stop_reasons
+};
+
+/// An evaluated point and its (single, possibly noisy) value.
+struct CmaesCandidate {
+  Eigen::VectorXd x;  ///< dim n, inside the bounds
+  double value = 0;   ///< objective value as evaluated
+};
+
 /// Result of cmaes_minimize (and cmaes_minimize_batch).
 struct CmaesSummary {
   Eigen::VectorXd best_x;        ///< best candidate ever evaluated (dim n), inside the bounds
@@ -77,10 +124,17 @@ struct CmaesSummary {
   int restarts = 0;              ///< restarts performed
   int generations = 0;           ///< generations over all runs
   CmaesTermination termination = CmaesTermination::kMaxEvaluations;
-  /// Per run, why it stopped: "MaxFunEvals" (total budget), "RunBudget" (a small BIPOP run used its
-  /// budget, half of the latest large run's), "TolX", "TolFun", "TolHistFun", "EqualFunVals", "ConditionCov", "NoEffectAxis",
+  /// Per run, why it stopped: "MaxFunEvals" (total budget), "MaxRunEvals" (the run's budget,
+  /// options.max_run_evaluations), "RunBudget" (a small BIPOP run used its
+  /// budget, half of the latest large run's), "Stagnation", "TolX", "TolFun", "TolHistFun", "EqualFunVals", "ConditionCov", "NoEffectAxis",
   /// "NoEffectCoord", "TolUpSigma", "MaxIter", "NumericalError", "StopFitness" or "Callback".
   std::vector<std::string> run_stop_reasons;
+  /// Every run, in order (same length as run_stop_reasons).
+  std::vector<CmaesRun> runs;
+  /// The options.keep_best best distinct evaluated points, best first (x0 included when evaluated).
+  std::vector<CmaesCandidate> best_candidates;
+  /// Value of x0 when options.evaluate_start (NaN otherwise).
+  double start_value = std::numeric_limits<double>::quiet_NaN();
   /// One line: "cmaes: best -12.3 after 10000 evaluations, 3 restarts (MaxEvaluations)".
   std::string BriefReport() const;
 };
@@ -98,11 +152,15 @@ struct CmaesProgress {
 /// Objective: value to MINIMISE at x (dim n). `stream` is a seed unique to this evaluation,
 /// derive_seed(CmaesOptions::seed, {run, generation within the run, candidate index}) where run is 0
 /// for the first run and candidate index is in [0, lambda) (lambda + j for the j-th re-evaluation of
-/// uncertainty handling); to be used by stochastic
+/// uncertainty handling); x0's evaluation (options.evaluate_start) gets derive_seed(seed,
+/// {kCmaesStartStream}); to be used by stochastic
 /// objectives so that results do not depend on the evaluation order or thread count. Called
 /// concurrently from several threads when options.parallel is true: must be thread-safe.
 /// Non-finite values are treated as +infinity (worst).
 using Objective = std::function<double(const Eigen::VectorXd& x, std::uint64_t stream)>;
+
+/// Stream tag of x0's evaluation (see Objective).
+inline constexpr std::uint64_t kCmaesStartStream = 0x5747A27ULL;
 
 /// Callback after each generation; return false to stop the search.
 using CmaesCallback = std::function<bool(const CmaesProgress&)>;

@@ -61,7 +61,7 @@ INSTANTIATE_TEST_SUITE_P(Hexapod, MiPicksTheRemovedLeg, ::testing::Values(0, 5, 
 struct LearnAndSearch {
   model::ModelSummary learned;
   model::ModelState state;
-  opt::CmaesSummary search;
+  algo::PolicySearchResult search;
   long nonfinite_steps = 0;
 };
 
@@ -108,16 +108,17 @@ TEST(HexapodGpMi, SameSeedGivesBitIdenticalModelAndPolicySearchWithOneAndTwoThre
   ASSERT_EQ(b.state.h_params.size(), 48u);
   for (std::size_t i = 0; i < a.state.h_params.size(); ++i)
     EXPECT_EQ(a.state.h_params[i], b.state.h_params[i]) << "output " << i;
-  EXPECT_EQ(a.search.best_x, b.search.best_x);
-  EXPECT_EQ(a.search.best_value, b.search.best_value);
-  EXPECT_EQ(a.search.evaluations, b.search.evaluations);
-  EXPECT_EQ(a.search.generations, b.search.generations);
+  EXPECT_EQ(a.search.theta, b.search.theta);
+  EXPECT_EQ(a.search.value, b.search.value);
+  EXPECT_EQ(a.search.search.best_value, b.search.search.best_value);
+  EXPECT_EQ(a.search.search.evaluations, b.search.search.evaluations);
+  EXPECT_EQ(a.search.search.generations, b.search.search.generations);
   EXPECT_EQ(a.nonfinite_steps, b.nonfinite_steps);
   // Both runs did the work being compared: kernels were fitted and the budget was used.
   EXPECT_GT(a.learned.rprop_iterations, 0);
-  EXPECT_GT(a.search.evaluations, 150);
-  EXPECT_LE(a.search.evaluations, 200);
-  EXPECT_TRUE(std::isfinite(a.search.best_value));
+  EXPECT_GT(a.search.search.evaluations, 150);
+  EXPECT_LE(a.search.search.evaluations, 200);
+  EXPECT_TRUE(std::isfinite(a.search.value));
 }
 
 }  // namespace
