@@ -654,7 +654,7 @@ std::string summary_status(const fs::path& run_dir) {
 void check_run_config(const fs::path& run_dir, const CampaignRun& run, const fs::path& campaign) {
   io::Settings existing;
   try {
-    existing = io::load_settings(read_text(run_dir / "config.yaml"), {});
+    existing = io::load_run_settings(read_text(run_dir / "config.yaml"), {});
   } catch (const std::exception& e) {
     throw ConfigError("run " + run.name + " in " + campaign.string() +
                       ": its config.yaml cannot be compared with this campaign (" + e.what() +

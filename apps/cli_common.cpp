@@ -37,7 +37,11 @@ void split_args(const std::vector<std::string>& args, std::string& file,
 }
 
 io::Settings settings_from(const std::string& file, const std::vector<std::string>& overrides) {
-  return file.empty() ? io::load_settings("", overrides) : io::load_settings_file(file, overrides);
+  if (file.empty()) return io::load_settings("", overrides);
+  // A run directory's config.yaml repeats that run, also when it predates a key (see
+  // io::load_run_settings).
+  return io::is_run_config(file) ? io::load_run_settings_file(file, overrides)
+                                 : io::load_settings_file(file, overrides);
 }
 
 std::string local_timestamp() {

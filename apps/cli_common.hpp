@@ -17,7 +17,8 @@ void split_args(const std::vector<std::string>& args, std::string& file,
                 std::vector<std::string>& overrides);
 
 /// The settings of `file` (empty: the defaults) with `overrides` applied (io::load_settings_file /
-/// io::load_settings). Throws ConfigError on an unknown key or a bad value (the message names it).
+/// io::load_settings; io::load_run_settings_file when `file` is a run directory's config.yaml,
+/// so that `drops run RUN_DIR/config.yaml` repeats that run). Throws ConfigError on an unknown key or a bad value (the message names it).
 io::Settings settings_from(const std::string& file, const std::vector<std::string>& overrides);
 
 /// The local time as "YYYYMMDD-HHMMSS", for default run-directory names.

@@ -128,8 +128,9 @@ int direct_main(const DirectArgs& a) {
   co.seed = derive_seed(e.seed, {kDirectSearch});
   if (co.sigma0 <= 0) co.sigma0 = b;  // as the policy search on the model (settings.md §5)
   co.parallel = e.threads != 1;
-  // --start costs one episode of the budget
-  if (!a.start.empty() && co.max_evaluations > 1) --co.max_evaluations;
+  // The start (--start) is evaluated first, within the budget, and kept unless beaten. The
+  // selection is the best episode seen: re-evaluating a short list would cost real episodes.
+  co.evaluate_start = !a.start.empty();
   const VectorXd lower = VectorXd::Constant(n, -b), upper = VectorXd::Constant(n, b);
 
   nlohmann::json summary = {{"task", e.task},
@@ -178,18 +179,8 @@ int direct_main(const DirectArgs& a) {
   };
   opt::CmaesSummary s;
   try {
-    double start_value = std::numeric_limits<double>::infinity();
-    if (!a.start.empty()) start_value = objective(x0, derive_seed(e.seed, {kDirectSearch, 1}));
     s = opt::cmaes_minimize(objective, x0, lower, upper, co, on_generation);
-    if (!a.start.empty()) {
-      ++s.evaluations;
-      summary["start_return"] = -start_value;
-      if (start_value < s.best_value) {
-        s.best_x = x0;
-        s.best_value = start_value;
-        s.run_stop_reasons.push_back("StartPointKept");
-      }
-    }
+    if (!a.start.empty()) summary["start_return"] = -s.start_value;
   } catch (const std::exception& ex) {
     if (live) std::cerr << "\r\033[K";
     summary["error"] = ex.what();
@@ -207,6 +198,14 @@ int direct_main(const DirectArgs& a) {
   summary["evaluations"] = s.evaluations;
   summary["restarts"] = s.restarts;
   summary["stop_reasons"] = s.run_stop_reasons;
+  nlohmann::json runs = nlohmann::json::array();
+  for (const auto& r : s.runs)
+    runs.push_back({{"lambda", r.lambda}, {"sigma0", r.sigma0},
+                    {"from", r.from_start ? "start" : "random"},
+                    {"regime", r.small ? "small" : "large"}, {"evaluations", r.evaluations},
+                    {"generations", r.generations}, {"best_return", -r.best_value},
+                    {"stop", r.stop_reason}});
+  summary["runs"] = runs;
   summary["best_return"] = -s.best_value;
   summary["solved"] = setup.task->solved(best);
   if (setup.trajectory_metrics) {

@@ -64,7 +64,7 @@ int run_main(const RunArgs& a) {
     const std::filesystem::path d(a.resume);
     if (!std::filesystem::exists(d / "config.yaml"))
       throw Error(d.string() + " is not a run directory (no config.yaml)");
-    settings = io::load_settings_file((d / "config.yaml").string(), overrides);
+    settings = io::load_run_settings_file((d / "config.yaml").string(), overrides);
   } else {
     if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
     if (!a.output.empty()) overrides.push_back("output=" + a.output);

@@ -118,6 +118,33 @@ TEST(Config, HexapodBuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_DOUBLE_EQ(on.algo.model.rprop.max_length_scale_ratio, 100.0);
 }
 
+// A run directory's config.yaml written before the policy-search keys of 2026-11-22 resumes with
+// the search it began with; a config that names the keys (or a user's file) keeps today's.
+TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
+  const std::string old_run = "task: pendubot\noptimizer:\n  max_evaluations: 10000\n  keep_start: false\n";
+  const auto legacy = io::make_experiment(io::load_run_settings(old_run, {"episodes=20"}));
+  EXPECT_EQ(legacy.algo.selection, algo::PolicySelection::kBestSeen);
+  EXPECT_EQ(legacy.algo.cmaes.max_run_evaluations, 0);
+  EXPECT_FALSE(legacy.algo.cmaes.stagnation);
+  EXPECT_EQ(legacy.algo.cmaes.tol_fun, 1e-12);
+  EXPECT_EQ(legacy.algo.cmaes.restart_start, opt::CmaesRestartStart::kRandom);
+  EXPECT_FALSE(legacy.algo.keep_start_point);
+  EXPECT_EQ(legacy.algo.episodes, 20);  // the caller's overrides still apply
+  const auto user = io::make_experiment(io::load_settings(old_run, {}));
+  EXPECT_EQ(user.algo.selection, algo::PolicySelection::kReevaluate);
+  EXPECT_EQ(user.algo.cmaes.max_run_evaluations, 2500);  // a quarter of the total
+  EXPECT_TRUE(user.algo.cmaes.stagnation);
+  EXPECT_EQ(user.algo.cmaes.restart_start, opt::CmaesRestartStart::kMixed);
+  // A run written today names every key: nothing is replaced.
+  const auto now = io::load_settings("", {});
+  EXPECT_EQ(io::load_run_settings(io::to_yaml(now), {}), now);
+  const auto big = io::make_experiment(io::load_settings("", {"optimizer.max_evaluations=40000"}));
+  EXPECT_EQ(big.algo.cmaes.max_run_evaluations, 10000);
+  const auto set = io::make_experiment(
+      io::load_settings("", {"optimizer.max_evaluations=40000", "optimizer.run_evaluations=0"}));
+  EXPECT_EQ(set.algo.cmaes.max_run_evaluations, 0);
+}
+
 // Settings written before a default became task-dependent hold the old value explicitly; once
 // resolved, both compare equal (the campaign relies on this to continue old campaigns).
 TEST(Config, ResolvedDerivedDefaultsEqualTheValuesOlderRunsWrote) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -139,8 +140,8 @@ std::vector<KeySpec> build_schema() {
        "CMA-ES policy evaluations per optimization, all restarts (empty = 10000 for the pendubot, "
        "2000 for the hexapod, whose rollouts cost about 50 times more)"});
   add({"optimizer.run_evaluations", "int", "", 0, 100000000, {}, "-",
-       "CMA-ES evaluations of one run before it restarts (empty = 2500 for the pendubot, 1000 for the "
-       "hexapod; 0 = no per-run budget): with a noisy objective the tolerances rarely end a run, so "
+       "CMA-ES evaluations of one run before it restarts (empty = a quarter of "
+       "optimizer.max_evaluations; 0 = no per-run budget): with a noisy objective the tolerances rarely end a run, so "
        "this is what makes restarts happen"});
   add({"optimizer.restarts", "int", "3", 0, 100, {}, "-",
        "large-population (IPOP) restarts after the first run; BIPOP's small runs come in between"});
@@ -170,8 +171,9 @@ std::vector<KeySpec> build_schema() {
        "which evaluated policy is run: reevaluate = the best mean return when the start, the best "
        "evaluated policies and each run's final mean are re-evaluated with many rollouts (robust to "
        "lucky rollouts); best_seen = the best single evaluation (the paper's reference)"});
-  add({"optimizer.reevaluation_rollouts", "int", "50", 1, 100000, {}, "-",
-       "selection reevaluate: rollouts per re-evaluated policy (common random numbers)"});
+  add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
+       "selection reevaluate: rollouts per re-evaluated policy, on common random numbers (empty = 50 "
+       "for the pendubot, 20 for the hexapod, whose rollouts cost about 50 times more)"});
   add({"optimizer.reevaluation_candidates", "int", "10", 1, 10000, {}, "-",
        "selection reevaluate: best distinct evaluated policies re-evaluated (besides the start and "
        "the runs' final means)"});
@@ -367,16 +369,58 @@ Settings load_settings(const std::string& yaml_text, const std::vector<std::stri
   return out;
 }
 
-Settings load_settings_file(const std::string& path, const std::vector<std::string>& overrides) {
+namespace {
+std::string read_config_file(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError("cannot read config file '" + path + "'");
   std::stringstream ss;
   ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+Settings load_settings_file(const std::string& path, const std::vector<std::string>& overrides) {
+  const std::string text = read_config_file(path);
   try {
-    return load_settings(ss.str(), overrides);
+    return load_settings(text, overrides);
   } catch (const ConfigError& e) {
     throw ConfigError(path + ": " + e.what());
   }
+}
+
+Settings load_run_settings(const std::string& yaml_text, const std::vector<std::string>& overrides) {
+  // Keys added after a run may have been written, with the value that reproduces the old runs.
+  static const std::pair<const char*, const char*> kLegacy[] = {
+      {"optimizer.selection", "best_seen"},
+      {"optimizer.run_evaluations", "0"},
+      {"optimizer.stagnation", "false"},
+      {"optimizer.tol_fun", "1e-12"},
+      {"optimizer.restart_from", "random"},
+  };
+  Settings present;
+  flatten(parse_yaml(yaml_text, "config"), "", present);
+  std::vector<std::string> all;
+  for (const auto& [key, value] : kLegacy)
+    if (!present.count(key)) all.push_back(std::string(key) + "=" + value);
+  all.insert(all.end(), overrides.begin(), overrides.end());
+  return load_settings(yaml_text, all);
+}
+
+Settings load_run_settings_file(const std::string& path,
+                                const std::vector<std::string>& overrides) {
+  const std::string text = read_config_file(path);
+  try {
+    return load_run_settings(text, overrides);
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+}
+
+bool is_run_config(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  return std::filesystem::exists(dir / "episodes.csv", ec) ||
+         std::filesystem::exists(dir / "summary.json", ec);
 }
 
 namespace {
@@ -428,12 +472,22 @@ void resolve_derived_defaults(Settings& settings) {
   const std::pair<const char*, const char*> derived[] = {
       {"policy.bound", hexapod ? "0.5" : "5"},
       {"optimizer.max_evaluations", hexapod ? "2000" : "10000"},
-      {"optimizer.run_evaluations", hexapod ? "1000" : "2500"},
+      {"optimizer.reevaluation_rollouts", hexapod ? "20" : "50"},
       {"model.rprop.max_length_scale_ratio", hexapod ? "10" : "100"},
   };
   for (const auto& [key, value] : derived) {
     const auto it = settings.find(key);
     if (it != settings.end() && it->second.empty()) it->second = value;
+  }
+  // A run's budget follows the total: a quarter of it (at least 4 runs per search).
+  const auto run = settings.find("optimizer.run_evaluations");
+  const auto total = settings.find("optimizer.max_evaluations");
+  if (run != settings.end() && run->second.empty() && total != settings.end()) {
+    try {
+      run->second = std::to_string(std::stoll(total->second) / 4);
+    } catch (const std::exception&) {
+      // a malformed total is reported by the validation of optimizer.max_evaluations
+    }
   }
 }
 

@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     const fs::path output = argc == 5 ? fs::path(argv[4]) : run / "episodes" / folder / "real.gif";
 
     const drops::io::Experiment e =
-        drops::io::make_experiment(drops::io::load_settings_file((run / "config.yaml").string(), {}));
+        drops::io::make_experiment(drops::io::load_run_settings_file((run / "config.yaml").string(), {}));
     if (e.task != "hexapod") throw drops::ConfigError(run.string() + " is not a hexapod run");
     const std::vector<Eigen::VectorXd> states = read_states(csv);
 

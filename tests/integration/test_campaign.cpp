@@ -168,13 +168,13 @@ TEST(Campaign, PendubotCampaignNamesRunsLikeTheHandStartedCampaignAndRunsSeedsSl
                                                    "/configs/campaign-pendubot.yaml");
   EXPECT_EQ(spec.name, "pendubot");
   const auto runs = drops::app::expand_campaign(spec);
-  ASSERT_EQ(runs.size(), 160u);
+  ASSERT_EQ(runs.size(), 80u);
   EXPECT_EQ(runs[0].name, "gp_mi-tunable-useful-seed1");
   EXPECT_EQ(runs[1].name, "gp_mi-tunable-seed1");
   EXPECT_EQ(runs[4].name, "gp_prior-tunable-useful-seed1");
   EXPECT_EQ(runs[15].name, "gp-partially-tunable-seed1");
   EXPECT_EQ(runs[16].name, "gp_mi-tunable-useful-seed2");
-  EXPECT_EQ(runs[159].name, "gp-partially-tunable-seed10");
+  EXPECT_EQ(runs[79].name, "gp-partially-tunable-seed5");
   for (std::size_t i = 0; i < runs.size(); ++i) {
     EXPECT_EQ(runs[i].settings.at("seed"), std::to_string(i / 16 + 1)) << runs[i].name;
     EXPECT_EQ(runs[i].settings.at("episodes"), "15");

@@ -42,6 +42,20 @@ Settings load_settings(const std::string& yaml_text, const std::vector<std::stri
 /// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
 Settings load_settings_file(const std::string& path, const std::vector<std::string>& overrides);
 
+/// As load_settings, for the config.yaml of a run directory (every key resolved by the drops that
+/// wrote it). A key added to drops after that run was written, whose default changed what a run
+/// does, gets the value that reproduces the old behaviour instead of today's default: the policy
+/// search keys of 2026-11-22 (optimizer.selection best_seen, optimizer.run_evaluations 0,
+/// optimizer.stagnation false, optimizer.tol_fun 1e-12, optimizer.restart_from random). So a
+/// resumed or repeated old run goes on as it began, and a campaign sees that it differs from one
+/// with today's defaults. Throws as load_settings.
+Settings load_run_settings(const std::string& yaml_text, const std::vector<std::string>& overrides);
+/// load_run_settings of a file (errors name the file).
+Settings load_run_settings_file(const std::string& path, const std::vector<std::string>& overrides);
+/// True when `path` is the config.yaml of a run directory (its folder holds episodes.csv or
+/// summary.json).
+bool is_run_config(const std::string& path);
+
 /// The hexapod's settings (task "hexapod"), as plain values: drops::io does not depend on DART;
 /// the app builds the robot, the prior family and the task from them (apps/task_setup.cpp).
 /// Legs: -1 none / intact, 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, 4 mid-right,
