@@ -107,9 +107,10 @@ TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
   EXPECT_GT(start_kept, 0);     // with it, the start itself is returned then
 }
 
-// A noisy model (sampled rollouts): the re-evaluated choice is, by a many-rollout oracle, at least
-// as good as the best single evaluation, and the reported value is the mean of the re-evaluation.
-TEST(BlackDrops, ReevaluatedSelectionIsNotWorseThanTheLuckiestDrawOnANoisyModel) {
+// A noisy model (sampled rollouts of a GP learned on 3 random episodes): by a 2,000-rollout oracle,
+// the re-evaluated choice has a better mean than the luckiest single evaluation, and its reported
+// value is close to its mean; the luckiest draw over-states its own.
+TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisyModel) {
   const auto e = io::make_experiment(io::load_settings(
       "", {"optimizer.max_evaluations=300", "model.type=gp"}));
   auto task = std::make_shared<pendubot::SwingUpTask>(e.task_options);
@@ -134,7 +135,6 @@ TEST(BlackDrops, ReevaluatedSelectionIsNotWorseThanTheLuckiestDrawOnANoisyModel)
     rollout::evaluate_policies(*task, *model, pol, {theta}, {99}, ro, r);
     return r[0];
   };
-  double gain = 0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     auto o = e.algo;
     o.selection = algo::PolicySelection::kReevaluate;
@@ -142,12 +142,16 @@ TEST(BlackDrops, ReevaluatedSelectionIsNotWorseThanTheLuckiestDrawOnANoisyModel)
                                          seed, nullptr, nullptr);
     EXPECT_GE(s.candidates, 2);
     const double chosen = oracle(s.theta), luckiest = oracle(s.search.best_x);
-    // The single best draw over-states its own mean; the re-evaluated value does much less so.
-    EXPECT_GT(-s.search.best_value - luckiest, s.value - chosen) << "seed " << seed;
-    EXPECT_GE(chosen, luckiest - 0.5) << "seed " << seed;
-    gain += chosen - luckiest;
+    std::printf("[info] seed %d: chosen %.2f (re-evaluated %.2f, %s), luckiest %.2f (its draw "
+                "%.2f)\n", static_cast<int>(seed), chosen, s.value, s.selected.c_str(), luckiest,
+                -s.search.best_value);
+    // The single best draw over-states its own mean by far (measured 9-14); the re-evaluated value
+    // is close to the oracle (measured within 0.3), and the chosen policy is better than the
+    // luckiest draw's by a margin (measured 2.5-4).
+    EXPECT_GT(-s.search.best_value - luckiest, 5.0) << "seed " << seed;
+    EXPECT_NEAR(s.value, chosen, 1.0) << "seed " << seed;
+    EXPECT_GT(chosen, luckiest + 1.0) << "seed " << seed;
   }
-  EXPECT_GE(gain, 0.0);
 }
 
 TEST(BlackDrops, InvalidOptionsAreRejected) {

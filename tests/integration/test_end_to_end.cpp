@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <csignal>
 #include <cstdlib>
@@ -53,7 +54,7 @@ int count_lines(const fs::path& p) {
 }  // namespace
 
 // The issue's learning threshold: gp_mi with the tunable-useful prior solves within 8 episodes,
-// with a fixed seed and a budget that fits CI.
+// with a fixed seed and the default budget.
 TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
   const fs::path out = fresh_dir("gpmi");
   std::string err;
@@ -76,6 +77,29 @@ TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
     EXPECT_EQ(count_lines(out / "run" / "episodes" / buf / "policy.csv"), 81);
   }
   EXPECT_TRUE(fs::exists(out / "run" / "config.yaml"));
+  // Issue 13: the search keeps what it found. Once an episode reaches 18, no later one falls more
+  // than 2 below the best so far (measured: 20.09 at episode 1, then 20.12-20.15).
+  double best = -1e300;
+  bool reached = false;
+  for (const auto& e : summary["episodes"]) {
+    const double r = e["real_return"].get<double>();
+    if (reached) EXPECT_GE(r, best - 2.0) << "episode " << e["episode"];
+    best = std::max(best, r);
+    reached = reached || r >= 18.0;
+    // summary.json records each CMA-ES run and the selection.
+    ASSERT_TRUE(e.contains("policy_search_runs")) << e.dump(2);
+    const auto& runs = e["policy_search_runs"];
+    ASSERT_GE(runs.size(), 2u) << "restarts happen";
+    long evals = 0;
+    for (const auto& run : runs) {
+      EXPECT_FALSE(run["stop"].get<std::string>().empty());
+      evals += run["evaluations"].get<long>();
+    }
+    if (e["episode"].get<int>() > 1) EXPECT_EQ(evals + 1, e["evaluations"].get<long>());  // + start
+    EXPECT_GE(e["policy_selection"]["candidates"].get<int>(), 2);
+    EXPECT_TRUE(std::isfinite(e["policy_selection"]["reevaluated_return"].get<double>()));
+  }
+  EXPECT_TRUE(reached);
   fs::remove_all(out);
 }
 
