@@ -23,8 +23,10 @@ std::string phi_brief(const VectorXd& phi, const std::vector<std::string>& names
                       const std::vector<int>& tunable) {
   std::string s;
   for (int i : tunable)
-    s += fmt::format("{}{}={:.3f}", s.empty() ? "" : " ", names[static_cast<std::size_t>(i)], phi[i]);
-  return s;
+    if (i >= 0 && i < phi.size() && static_cast<std::size_t>(i) < names.size())
+      s += fmt::format("{}{}={:.3f}", s.empty() ? "" : " ", names[static_cast<std::size_t>(i)],
+                       phi[i]);
+  return s.empty() ? "none" : s;  // the gp variant has no prior, hence no phi
 }
 
 std::string default_name(const io::Experiment& e) {
@@ -128,10 +130,11 @@ int run_main(const RunArgs& a) {
     if (a.quiet) return;
     std::cerr << fmt::format(
         "episode {:>2}/{}  t={:5.1f} s  return {:6.2f}  predicted {:6.2f}  solved {}  phi [{}]  "
-        "model {:.1f} s  policy {:.1f} s  {} evals\n",
+        "model {:.1f} s  policy {:.1f} s  {} evals{}\n",
         r.episode, e.algo.episodes, r.interaction_time, r.real_return, r.predicted_return,
         r.solved ? "yes" : "no ", phi_brief(r.phi, e.prior.names, e.prior.tunable),
-        r.model_seconds, r.policy_seconds, r.evaluations);
+        r.model_seconds, r.policy_seconds, r.evaluations,
+        r.selected == "start" ? "  (best policy kept)" : "");
   };
   cb.on_state = [&](const algo::BlackDropsState& st) { dir->save_state(st); };
 
