@@ -68,7 +68,8 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
   result.search = opt::cmaes_minimize_batch(objective, start, lower, upper, co, on_gen);
   const opt::CmaesSummary& cs = result.search;
   auto same = [](const VectorXd& a, const VectorXd& b) { return (a.array() == b.array()).all(); };
-  if (!reevaluate) {
+  // A search stopped by its caller (e.g. Ctrl-C) is not worth re-evaluating: its policy is not run.
+  if (!reevaluate || cs.termination == opt::CmaesTermination::kCallback) {
     result.theta = cs.best_x;
     result.value = -cs.best_value;
     result.selected = options.keep_start_point && same(cs.best_x, start) ? "start" : "best_seen";

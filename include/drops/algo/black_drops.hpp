@@ -156,7 +156,8 @@ struct PolicySearchResult {
 
 /// Maximises the mean model return (paper §IV-C) over theta in [-b, b]^n with BIPOP-aCMA-ES
 /// starting from theta0 (dim n, clamped into the box), then selects the returned policy per
-/// options.selection. With options.keep_start_point, theta0 is evaluated first and is a candidate
+/// options.selection (a search that on_gen stopped returns its best single evaluation, without
+/// re-evaluation). With options.keep_start_point, theta0 is evaluated first and is a candidate
 /// like any other. Deterministic for a given seed whatever the thread count. Throws
 /// InvalidArgument on size mismatch. Exposed for benchmarks and tests.
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
