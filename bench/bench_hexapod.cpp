@@ -26,9 +26,10 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/core/rng.hpp"
-#include "drops/io/config.hpp"
+#include "drops/experiment/experiment.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
+#include "hexapod/plugin.hpp"
 #include "hexapod/policy.hpp"
 #include "hexapod/prior.hpp"
 #include "hexapod/real_robot.hpp"
@@ -68,9 +69,12 @@ const std::vector<Transition>& real_data(int transitions) {
 /// their task-dependent values: soft walls on, length-scale ratio 10), so that the benchmark times
 /// what the runs do.
 model::ModelOptions run_model_options() {
-  auto settings = io::load_settings("task: hexapod\n", {});
-  io::resolve_derived_defaults(settings);
-  return io::make_experiment(settings).algo.model;
+  experiment::Registry registry;
+  experiment::register_builtin_algorithms(registry);
+  hexapod::register_task(registry);
+  return experiment::black_drops_options(
+             experiment::load_settings(registry, "task: hexapod\n", {}))
+      .model;
 }
 
 std::unique_ptr<model::DynamicsModel> make_hexapod_model(const model::ModelOptions& o) {

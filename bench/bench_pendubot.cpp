@@ -7,25 +7,34 @@
 
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/parallel.hpp"
-#include "drops/io/config.hpp"
-#include "pendubot/pendubot.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/pendubot/plugin.hpp"
+#include "drops/pendubot/pendubot.hpp"
 
 using namespace drops;
 
 namespace {
 
+/// The default pendubot experiment of the drops command line.
+experiment::Experiment default_experiment() {
+  static experiment::Registry registry;
+  if (registry.task_names().empty()) {
+    experiment::register_builtin_algorithms(registry);
+    pendubot::register_task(registry);
+  }
+  return experiment::make_experiment(registry, experiment::load_settings(registry, "", {}));
+}
+
 struct Setup {
-  io::Experiment e = io::make_experiment(io::load_settings("", {}));
-  std::shared_ptr<pendubot::SwingUpTask> task;
-  std::shared_ptr<pendubot::PendubotPrior> prior;
-  std::unique_ptr<policy::NeuralNetPolicy> pol;
+  experiment::Experiment e = default_experiment();
+  algo::BlackDropsOptions algo = experiment::black_drops_options(e.settings);
+  std::shared_ptr<const rollout::Task> task = e.setup.task;
+  std::shared_ptr<const model::MeanFunction> prior = e.setup.prior;
+  std::unique_ptr<policy::Policy> pol = e.setup.policy->clone();
   std::vector<Transition> data;
 
   explicit Setup(int transitions) {
-    task = std::make_shared<pendubot::SwingUpTask>(e.task_options);
-    prior = std::make_shared<pendubot::PendubotPrior>(e.task_options);
-    pol = std::make_unique<policy::NeuralNetPolicy>(e.policy);
-    pendubot::PendubotSystem real(e.actual, e.task_options);
+    const rollout::System& real = *e.setup.real;
     Rng rng(42);
     while (static_cast<int>(data.size()) < transitions) {
       VectorXd theta(pol->param_dim());
@@ -36,9 +45,9 @@ struct Setup {
     }
   }
   std::unique_ptr<model::DynamicsModel> learned(model::ModelType type = model::ModelType::kGpMi) {
-    model::ModelOptions o = e.algo.model;
+    model::ModelOptions o = algo.model;
     o.type = type;
-    auto m = model::make_model(o, task, prior, e.prior);
+    auto m = model::make_model(o, task, prior, e.setup.prior_parameters);
     m->learn(data);
     return m;
   }
@@ -58,7 +67,7 @@ void BM_RolloutThroughput(benchmark::State& state) {
       for (int i = 0; i < 81; ++i) thetas[static_cast<std::size_t>(k)][i] = rng.uniform(-5, 5);
       seeds[static_cast<std::size_t>(k)] = rng();
     }
-    rollout::evaluate_policies(*s.task, *m, *s.pol, thetas, seeds, s.e.algo.rollouts, returns);
+    rollout::evaluate_policies(*s.task, *m, *s.pol, thetas, seeds, s.algo.rollouts, returns);
     evaluations += lambda;
   }
   state.counters["evals_per_s"] = benchmark::Counter(static_cast<double>(evaluations),
@@ -69,7 +78,7 @@ BENCHMARK(BM_RolloutThroughput)->Arg(50)->Arg(100)->Arg(250)->Arg(500)->UseRealT
 void BM_GpMiLearning(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)));
   for (auto _ : state) {
-    auto m = model::make_model(s.e.algo.model, s.task, s.prior, s.e.prior);
+    auto m = model::make_model(s.algo.model, s.task, s.prior, s.e.setup.prior_parameters);
     const auto summary = m->learn(s.data);
     state.counters["phi_evals"] = summary.phi_evaluations;
     state.counters["m2"] = summary.phi[1];
@@ -81,7 +90,7 @@ void BM_PolicyOptimization(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)));
   auto m = s.learned();
   for (auto _ : state) {
-    const auto summary = algo::optimize_policy(*s.task, *m, *s.pol, VectorXd::Zero(81), s.e.algo,
+    const auto summary = algo::optimize_policy(*s.task, *m, *s.pol, VectorXd::Zero(81), s.algo,
                                                123, nullptr, nullptr);
     state.counters["evals"] = static_cast<double>(summary.search.evaluations);
     state.counters["predicted_return"] = summary.value;

@@ -7,7 +7,7 @@
 
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "pendubot/pendubot.hpp"
+#include "drops/pendubot/pendubot.hpp"
 
 using namespace drops;
 

@@ -3,11 +3,14 @@
 
 Every statistic is computed by the C++ side; this script only draws.
 
-  drops_plot.py report RETURNS_CSV OUTPUT_PNG
-      The paper's Fig. 3 form from returns.csv: one panel per prior, one line per variant,
-      median return with the 25-75 % band against interaction time.
-  drops_plot.py run RUN_DIR OUTPUT_DIR [--episodes 2,8] [--phi m1,m2]
-      returns.png, phi.png (the listed components) and trajectories-NNN.png of one run directory.
+  drops_plot.py report TABLE_CSV OUTPUT_PNG [--ylabel LABEL]
+      The paper's Fig. 3 form from returns.csv (or a task metric's table, e.g. speed.csv): one
+      panel per panel_title, one line per variant_label, in the table's row order, median with
+      the 25-75 % band against interaction time.
+  drops_plot.py run PLOT_DATA_JSON OUTPUT_DIR
+      returns.png, phi.png, the task metric's figure and trajectories-NNN.png of one run, from the
+      plot-data.json that `drops plot` writes with drops's run-directory reader; with body
+      positions (x, y, yaw) also path-NNN.png, with foot heights gait-NNN.png.
 
 Exit codes: 0 success, 1 error, 2 usage error, 3 matplotlib or numpy missing.
 Needs Debian's python3-matplotlib and python3-numpy (scripts/install-deps).
@@ -30,23 +33,10 @@ except ImportError as exc:  # reported by drops as "needs Debian's python3-matpl
     print(f"drops_plot.py: {exc}", file=sys.stderr)
     sys.exit(3)
 
-MODEL_ORDER = ["gp_mi", "gp_prior", "mi", "gp"]
-MODEL_NAMES = {
-    "gp_mi": "Black-DROPS with GP-MI",
-    "gp_prior": "Black-DROPS with priors",
-    "mi": "Black-DROPS with MI",
-    "gp": "Black-DROPS",
-}
-PRIOR_TITLES = {  # paper Table I / Fig. 3
-    "tunable-useful": "A  tunable & useful",
-    "tunable": "B  tunable",
-    "tunable-misleading": "C  tunable & misleading",
-    "partially-tunable": "D  partially tunable",
-}
-PRIOR_ORDER = list(PRIOR_TITLES) + ["actual"]
 COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#9467bd", "#ff7f0e", "#8c564b",
           "#e377c2", "#17becf", "#bcbd22"]
-# Units of the pendubot's φ components (prefix of the name) and state columns.
+# Units of φ components named by a letter and a digit (m1, l2, b1: masses, lengths, friction), and
+# labels of known state columns.
 PHI_UNITS = {"m": "kg", "l": "m", "b": "N·m·s/rad"}
 STATE_LABELS = {
     "theta1": (r"$\theta_1$", "rad"),
@@ -75,30 +65,6 @@ def number(text):
     return float(text)
 
 
-def model_of(variant):
-    return variant.split(" ", 1)[0]
-
-
-def variant_key(variant):
-    m = model_of(variant)
-    return (MODEL_ORDER.index(m) if m in MODEL_ORDER else len(MODEL_ORDER), variant)
-
-
-def variant_label(variant):
-    m, _, rest = variant.partition(" ")
-    name = MODEL_NAMES.get(m, m)
-    return f"{name}, {rest}" if rest else name
-
-
-def prior_title(prior):
-    if prior in PRIOR_TITLES:
-        return PRIOR_TITLES[prior]
-    # the hexapod's panels are the "real" robot's damage (apps/report.hpp, RunResult::prior)
-    if prior == "intact" or prior.endswith(("removed", "shortened", "blocked")):
-        return "real robot: " + prior
-    return prior
-
-
 def save(fig, path):
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
@@ -106,7 +72,7 @@ def save(fig, path):
 
 # ---------------------------------------------------------------- drops report
 
-def plot_report(returns_csv, output_png, quantity="return"):
+def plot_report(returns_csv, output_png, ylabel="return"):
     with open(returns_csv, newline="") as f:
         rows = list(csv.DictReader(f))
     if not rows:
@@ -115,12 +81,15 @@ def plot_report(returns_csv, output_png, quantity="return"):
         ax.text(0.5, 0.5, "no finished episode yet", ha="center", va="center")
         save(fig, output_png)
         return
-    priors = []
+    # Panels and variants in the table's order (drops sorts the groups).
+    priors, variants, label, title = [], [], {}, {}
     for r in rows:
         if r["prior"] not in priors:
             priors.append(r["prior"])
-    priors.sort(key=lambda p: (PRIOR_ORDER.index(p) if p in PRIOR_ORDER else len(PRIOR_ORDER), p))
-    variants = sorted({r["variant"] for r in rows}, key=variant_key)
+        if r["variant"] not in variants:
+            variants.append(r["variant"])
+        label[r["variant"]] = r.get("variant_label") or r["variant"]
+        title[r["prior"]] = r.get("panel_title") or r["prior"]
     color = {v: COLORS[i % len(COLORS)] for i, v in enumerate(variants)}
 
     n = len(priors)
@@ -148,14 +117,14 @@ def plot_report(returns_csv, output_png, quantity="return"):
             c = color[v]
             z = 2 * (len(variants) - variants.index(v))  # the first variant (GP-MI) on top
             ax.fill_between(t, q25, q75, color=c, alpha=0.15, linewidth=0, zorder=z)
-            ax.plot(t, med, color=c, linewidth=2, label=variant_label(v), zorder=z + 1)
+            ax.plot(t, med, color=c, linewidth=2, label=label[v], zorder=z + 1)
             ax.plot(t[full], med[full], "o", color=c, markersize=4, zorder=z + 1)
             ax.plot(t[~full], med[~full], "o", color=c, markersize=5, markerfacecolor="white",
                     zorder=z + 1)
-        ax.set_title(prior_title(prior), loc="left")
+        ax.set_title(title[prior], loc="left")
         ax.set_xlabel("interaction time (s)")
         if i % ncols == 0:
-            ax.set_ylabel("walking speed (m/s)" if quantity == "speed" else "return")
+            ax.set_ylabel(ylabel)
         ax.set_xlim(left=0)
     for j in range(n, nrows * ncols):
         axes[j // ncols][j % ncols].axis("off")
@@ -167,13 +136,13 @@ def plot_report(returns_csv, output_png, quantity="return"):
                     handles.append(h)
                     labels.append(l)
     order = sorted(range(len(labels)), key=lambda k: variants.index(
-        next(v for v in variants if variant_label(v) == labels[k])))
+        next(v for v in variants if label[v] == labels[k])))
     legend_cols = min(len(labels), 4 if fig.get_figwidth() >= 9 else 2)
     legend_rows = math.ceil(len(labels) / legend_cols)
     fig.legend([handles[k] for k in order], [labels[k] for k in order], loc="lower center",
                ncol=legend_cols, frameon=False, bbox_to_anchor=(0.5, 0.0))
-    title = ("Walking speed on the \"real\" robot" if quantity == "speed"
-             else "Return on the real system") + ": line = median over the runs, band = 25–75 %"
+    title = (ylabel[:1].upper() + ylabel[1:] + " on the real system: line = median over the runs, "
+             "band = 25–75 %")
     if partial:
         title += "\nhollow markers: not every run has reached this episode yet"
     fig.suptitle(title, fontsize=11)
@@ -183,31 +152,60 @@ def plot_report(returns_csv, output_png, quantity="return"):
 
 
 # ---------------------------------------------------------------- drops plot
+# From plot-data.json (experiment::write_plot_data): "episodes" (per episode: returns, phi,
+# metrics), "trajectories" (per drawn episode: "real" and "predicted" tables of columns and rows).
 
-def read_trajectory(path):
-    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
-    return np.atleast_1d(data)
+class Table:
+    """A trajectory table: columns by name as numpy arrays (null cells are NaN)."""
+
+    def __init__(self, data):
+        self.names = list(data["columns"])
+        rows = np.array([[number(v) for v in r] for r in data["rows"]], dtype=float)
+        rows = rows.reshape(len(data["rows"]), len(self.names))
+        self.cols = {n: rows[:, i] for i, n in enumerate(self.names)}
+
+    def __getitem__(self, name):
+        return self.cols[name]
+
+    def __contains__(self, name):
+        return name in self.cols
+
+    def __len__(self):
+        return len(self.cols["t"]) if "t" in self.cols else 0
 
 
-def read_episode(run_dir, k):
-    """Real and predicted (None when absent, e.g. a random first policy) trajectories of episode k."""
-    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
-    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
-    pred_path = os.path.join(ep_dir, "predicted.csv")
-    pred = read_trajectory(pred_path) if os.path.exists(pred_path) else None
-    return real, pred
+def episode_tables(data, k):
+    """Real and predicted (None when absent, e.g. a random first policy) trajectories of k."""
+    ep = data["trajectories"][str(k)]
+    return Table(ep["real"]), (Table(ep["predicted"]) if "predicted" in ep else None)
 
 
-def plot_returns(summary, name, out):
-    eps = summary.get("episodes", [])
+def episode_entry(data, k):
+    return next((e for e in data["episodes"] if e.get("episode") == k), {})
+
+
+def phi_value_label(data, v):
+    v = number(v)
+    if not math.isfinite(v):
+        return "?"
+    for value, label in data.get("phi_value_labels", []):
+        if value == v:
+            return label
+    return f"{v:g}"
+
+
+def plot_returns(data, out):
+    eps = data["episodes"]
     k = np.array([e["episode"] for e in eps])
     real = np.array([number(e.get("real_return")) for e in eps])
     pred = np.array([number(e.get("predicted_return")) for e in eps])
     solved = np.array([bool(e.get("solved")) for e in eps])
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    ax.plot(k, real, "-o", color="#1f77b4", linewidth=2, markersize=5, label="real return")
-    ax.plot(k, pred, "--s", color="#ff7f0e", linewidth=1.5, markersize=4,
-            label="predicted return (model)")
+    ax.plot(k, real, "-o", color="#1f77b4", linewidth=2, markersize=5 if len(k) <= 60 else 2,
+            label="real return")
+    if np.isfinite(pred).any():
+        ax.plot(k, pred, "--s", color="#ff7f0e", linewidth=1.5, markersize=4,
+                label="predicted return (model)")
     if solved.any():
         ax.plot(k[solved], real[solved], "*", color="#2ca02c", markersize=15, zorder=5,
                 label="solved")
@@ -221,12 +219,8 @@ def plot_returns(summary, name, out):
         sec = ax.secondary_xaxis("top", functions=(lambda e: e * per, lambda t: t / per))
         sec.set_xlabel("interaction time (s)")
     ax.legend(loc="lower right")
-    status = summary.get("status", "?")
-    ax.set_title(f"{name}: {MODEL_NAMES.get(summary.get('model'), summary.get('model'))}, "
-                 f"prior {prior_title(summary.get('prior', '?')).replace('  ', ' ')}, "
-                 f"seed {summary.get('seed', '?')}\n"
-                 f"{status}, {len(eps)}/{summary.get('episodes_planned', '?')} episodes",
-                 fontsize=11, pad=10)
+    ax.set_title(f"{data['name']}: {data['variant_label']}, {data['panel_title']}\n"
+                 f"{len(eps)} episodes", fontsize=11, pad=10)
     save(fig, os.path.join(out, "returns.png"))
 
 
@@ -235,15 +229,18 @@ def phi_label(name):
     return f"{name} ({unit})" if unit else name
 
 
-def plot_phi(summary, names, out):
-    all_names = summary.get("phi_names", [])
-    actual = summary.get("phi_actual", [])
-    eps = summary.get("episodes", [])
+def plot_phi(data, out):
+    names = data["phi_plotted"]
+    all_names = data.get("phi_names", [])
+    actual = data.get("phi_actual", [])
+    eps = data["episodes"]
+    discrete = bool(data.get("phi_value_labels"))
     k = np.array([e["episode"] for e in eps])
     n = len(names)
     ncols = 2 if n in (2, 4) else min(n, 3)
     nrows = math.ceil(n / ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 2.8 * nrows), squeeze=False)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.6 * ncols + (2 if discrete else 0),
+                                                    2.8 * nrows), squeeze=False)
     for j, name in enumerate(names):
         ax = axes[j // ncols][j % ncols]
         i = all_names.index(name)
@@ -252,6 +249,10 @@ def plot_phi(summary, names, out):
         ax.plot(k, vals, "-o", color="#1f77b4", markersize=4, label="model's φ")
         if i < len(actual) and actual[i] is not None:
             ax.axhline(actual[i], color="black", linestyle="--", linewidth=1.2, label="actual")
+        if discrete and i == 0:
+            values = [v for v, _ in data["phi_value_labels"]]
+            ax.set_yticks(values)
+            ax.set_yticklabels([label for _, label in data["phi_value_labels"]])
         ax.set_title(phi_label(name))
         ax.set_xlabel("episode")
         ax.margins(y=0.25)
@@ -266,23 +267,53 @@ def plot_phi(summary, names, out):
     save(fig, os.path.join(out, "phi.png"))
 
 
-def plot_trajectory(run_dir, summary, k, out):
-    real, pred = read_episode(run_dir, k)
-    columns = [c for c in real.dtype.names if c != "t"]
-    # States first, in the order angle, velocity; then action and reward.
-    states = [c for c in columns if c not in ("u", "reward")]
-    states.sort(key=lambda c: (c.startswith("d"), c))
-    columns = states + [c for c in ("u", "reward") if c in columns]
+def plot_metric(data, out):
+    m = data["metric"]
+    eps = data["episodes"]
+    k = np.array([e["episode"] for e in eps])
+    real = np.array([number(e["metrics"].get(m["name"])) for e in eps])
+    if not np.isfinite(real).any():
+        return
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    ax.plot(k, real, "-o", color="#1f77b4", linewidth=2, markersize=5, label="real system")
+    pred = np.array([number(e["metrics"].get(m.get("predicted", ""))) for e in eps])
+    if np.isfinite(pred).any():
+        ax.plot(k, pred, "--s", color="#ff7f0e", linewidth=1.5, markersize=4,
+                label="predicted (model mean)")
+    if m.get("reference") is not None:
+        ax.axhline(m["reference"], color="gray", linestyle=":", linewidth=1.2,
+                   label=m.get("reference_label", "reference"))
+    ax.set_xlabel("episode")
+    ax.set_ylabel(f"{m['label']} ({m['unit']})")
+    if len(k) <= 20:
+        ax.set_xticks(k)
+    ax.legend(loc="best", fontsize=9)
+    ax.set_title(f"{data['name']}: {m['label']} per episode\n{data['panel_title']}; "
+                 f"{data['variant_label']}", fontsize=11)
+    save(fig, os.path.join(out, f"{m.get('file') or m['name']}.png"))
+
+
+def plot_trajectory(data, k, out):
+    real, pred = episode_tables(data, k)
+    columns = [c for c in real.names if c != "t"]
+    if len(columns) > 12:
+        # Many state dimensions (a legged robot): the body's pose and forward velocity.
+        columns = [c for c, _ in BODY_COLUMNS if c in real]
+    else:
+        # States first, in the order angle, velocity; then action and reward.
+        states = [c for c in columns if c not in ("u", "reward")]
+        states.sort(key=lambda c: (c.startswith("d"), c))
+        columns = states + [c for c in ("u", "reward") if c in columns]
     ncols = 2
     nrows = math.ceil(len(columns) / ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(10, 2.6 * nrows), sharex=True, squeeze=False)
     for j, c in enumerate(columns):
         ax = axes[j // ncols][j % ncols]
-        label, unit = STATE_LABELS.get(c, (c, None))
+        label, unit = STATE_LABELS.get(c, dict(BODY_COLUMNS).get(c, (c, None)))
         # Actions are held constant over a time step.
         style = "steps-post" if c == "u" else "default"
         ax.plot(real["t"], real[c], color="#1f77b4", linewidth=1.8, label="real", drawstyle=style)
-        if pred is not None and c in pred.dtype.names:
+        if pred is not None and c in pred:
             ax.plot(pred["t"], pred[c], color="#ff7f0e", linestyle="--", linewidth=1.8,
                     label="predicted (model mean)", drawstyle=style)
         ax.set_ylabel(f"{label} ({unit})" if unit else label)
@@ -293,66 +324,39 @@ def plot_trajectory(run_dir, summary, k, out):
         axes[j // ncols][j % ncols].axis("off")
     h, l = axes[0][0].get_legend_handles_labels()
     fig.legend(h, l, loc="lower center", ncol=2, frameon=False, bbox_to_anchor=(0.5, -0.01))
-    ep = next((e for e in summary.get("episodes", []) if e.get("episode") == k), {})
+    ep = episode_entry(data, k)
     pr = ep.get("predicted_return")
-    name = os.path.basename(os.path.normpath(run_dir))
-    parts = [f"{name}: episode {k}", f"real return {number(ep.get('real_return')):.2f}"]
-    parts.append(f"predicted {pr:.2f}" if pr is not None else "random policy (no prediction)")
+    parts = [f"{data['name']}: episode {k}", f"real return {number(ep.get('real_return')):.2f}"]
+    parts.append(f"predicted {pr:.2f}" if pr is not None else "no prediction")
     parts.append("solved" if ep.get("solved") else "not solved")
     fig.suptitle(", ".join(parts), fontsize=12)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     save(fig, os.path.join(out, f"trajectories-{k:03d}.png"))
 
 
-# ---- hexapod (task "hexapod"): walking speed, body path seen from above, gait diagram ----
+# ---- legged robots: body path seen from above, gait diagram (columns x, y, yaw, foot*_height) ----
 
 LEG_NAMES = ["0 rear-left", "1 mid-left", "2 front-left", "3 front-right", "4 mid-right",
              "5 rear-right"]
 # A foot touches the ground when its lowest point is within this height of the ground plane (m);
 # contacts let it sink a few mm, and the state is sampled every 0.1 s.
 CONTACT_HEIGHT = 0.005
+BODY_COLUMNS = [("x", ("body x", "m")), ("y", ("body y", "m")), ("z", ("body height z", "m")),
+                ("roll", ("roll", "rad")), ("pitch", ("pitch", "rad")), ("yaw", ("yaw", "rad")),
+                ("vx", ("forward velocity", "m/s")), ("reward", ("reward", None))]
 
 
-def leg_label(phi):
-    v = number(phi)
-    if not math.isfinite(v):
-        return "?"
-    return "intact" if round(v) < 0 else f"leg {int(round(v))} removed"
-
-
-def plot_speed(summary, name, out):
-    eps = summary.get("episodes", [])
-    k = np.array([e["episode"] for e in eps])
-    real = np.array([number(e.get("walking_speed_m_s")) for e in eps])
-    pred = np.array([number(e.get("predicted_speed_m_s")) for e in eps])
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    ax.plot(k, real, "-o", color="#1f77b4", linewidth=2, markersize=5, label="real robot")
-    ax.plot(k, pred, "--s", color="#ff7f0e", linewidth=1.5, markersize=4,
-            label="predicted (model mean)")
-    ax.axhline(0.22, color="gray", linestyle=":", linewidth=1.2,
-               label="paper's physical robot, intact (0.22 m/s)")
-    ax.set_xlabel("episode")
-    ax.set_ylabel("walking speed (m/s)")
-    if len(k) <= 20:
-        ax.set_xticks(k)
-    ax.legend(loc="best", fontsize=9)
-    damage = summary.get("phi_actual", [None])
-    ax.set_title(f"{name}: walking speed per episode\n"
-                 f"real robot: {leg_label(damage[0] if damage else None)}; "
-                 f"{MODEL_NAMES.get(summary.get('model'), summary.get('model'))}", fontsize=11)
-    save(fig, os.path.join(out, "speed.png"))
-
-
-def plot_path(run_dir, summary, k, out):
-    real, pred = read_episode(run_dir, k)
+def plot_path(data, k, out):
+    real, pred = episode_tables(data, k)
     fig, ax = plt.subplots(figsize=(7, 5))
     ax.plot(real["x"], real["y"], "-", color="#1f77b4", linewidth=2, label="real robot")
     if pred is not None:
         ax.plot(pred["x"], pred["y"], "--", color="#ff7f0e", linewidth=1.8,
                 label="predicted (model mean)")
     # Heading every second: an arrow along the body's x axis (yaw).
-    step = max(1, int(round(1.0 / (real["t"][1] - real["t"][0])))) if len(real) > 1 else 1
-    idx = np.arange(0, len(real), step)
+    t = real["t"]
+    step = max(1, int(round(1.0 / (t[1] - t[0])))) if len(t) > 1 else 1
+    idx = np.arange(0, len(t), step)
     scale = 0.06
     ax.quiver(real["x"][idx], real["y"][idx], scale * np.cos(real["yaw"][idx]),
               scale * np.sin(real["yaw"][idx]), angles="xy", scale_units="xy", scale=1,
@@ -364,23 +368,25 @@ def plot_path(run_dir, summary, k, out):
     ax.set_ylabel("y, left (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(loc="best", fontsize=9)
-    ep = next((e for e in summary.get("episodes", []) if e.get("episode") == k), {})
-    ax.set_title(f"{os.path.basename(os.path.normpath(run_dir))}: episode {k}, body path from "
-                 f"above\nspeed {number(ep.get('walking_speed_m_s')):.3f} m/s, model's prior "
-                 f"{leg_label((ep.get('phi') or [None])[0])}", fontsize=11)
+    ep = episode_entry(data, k)
+    m = data["metric"]
+    value = number(ep.get("metrics", {}).get(m["name"])) if m["name"] else math.nan
+    ax.set_title(f"{data['name']}: episode {k}, body path from above\n"
+                 + (f"{m['label']} {value:.3f} {m['unit']}, " if math.isfinite(value) else "")
+                 + f"model's prior {phi_value_label(data, (ep.get('phi') or [None])[0])}",
+                 fontsize=11)
     save(fig, os.path.join(out, f"path-{k:03d}.png"))
 
 
-def plot_gait(run_dir, summary, k, out):
-    ep_dir = os.path.join(run_dir, "episodes", f"{k:03d}")
-    real = read_trajectory(os.path.join(ep_dir, "real.csv"))
+def plot_gait(data, k, out):
+    real, _ = episode_tables(data, k)
     t = real["t"]
     dt = t[1] - t[0] if len(t) > 1 else 0.1
     fig, (ax, axh) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True,
                                   gridspec_kw={"height_ratios": [1.2, 1]})
     for leg in range(6):
         col = f"foot{leg}_height"
-        if col not in real.dtype.names:
+        if col not in real:
             continue
         h = real[col]
         row = 5 - leg
@@ -394,9 +400,9 @@ def plot_gait(run_dir, summary, k, out):
     ax.set_yticks(range(6))
     ax.set_yticklabels([f"leg {LEG_NAMES[5 - r]}" for r in range(6)])
     ax.set_ylim(-0.6, 5.6)
-    ax.set_title(f"{os.path.basename(os.path.normpath(run_dir))}: episode {k}, gait diagram of the "
-                 f"real robot\n(black: foot on the ground, lowest point < {CONTACT_HEIGHT * 1000:.0f}"
-                 f" mm; sampled every {dt:.1f} s)", fontsize=11)
+    ax.set_title(f"{data['name']}: episode {k}, gait diagram of the real robot\n(black: foot on "
+                 f"the ground, lowest point < {CONTACT_HEIGHT * 1000:.0f} mm; sampled every "
+                 f"{dt:.1f} s)", fontsize=11)
     axh.axhline(CONTACT_HEIGHT * 1000, color="gray", linestyle=":", linewidth=1)
     axh.set_ylabel("foot height (mm)")
     axh.set_xlabel("time (s)")
@@ -405,51 +411,22 @@ def plot_gait(run_dir, summary, k, out):
     save(fig, os.path.join(out, f"gait-{k:03d}.png"))
 
 
-HEXAPOD_COLUMNS = [("x", "body x (m)"), ("y", "body y (m)"), ("z", "body height z (m)"),
-                   ("roll", "roll (rad)"), ("pitch", "pitch (rad)"), ("yaw", "yaw (rad)"),
-                   ("vx", "forward velocity (m/s)"), ("reward", "reward")]
-
-
-def plot_hexapod_trajectory(run_dir, summary, k, out):
-    real, pred = read_episode(run_dir, k)
-    fig, axes = plt.subplots(4, 2, figsize=(10, 9), sharex=True)
-    for j, (c, label) in enumerate(HEXAPOD_COLUMNS):
-        ax = axes[j // 2][j % 2]
-        ax.plot(real["t"], real[c], color="#1f77b4", linewidth=1.8, label="real")
-        if pred is not None:
-            ax.plot(pred["t"], pred[c], color="#ff7f0e", linestyle="--", linewidth=1.8,
-                    label="predicted (model mean)")
-        ax.set_ylabel(label)
-        if j >= 6:
-            ax.set_xlabel("time (s)")
-    h, l = axes[0][0].get_legend_handles_labels()
-    fig.legend(h, l, loc="lower center", ncol=2, frameon=False, bbox_to_anchor=(0.5, -0.01))
-    ep = next((e for e in summary.get("episodes", []) if e.get("episode") == k), {})
-    pr = ep.get("predicted_return")
-    fig.suptitle(f"{os.path.basename(os.path.normpath(run_dir))}: episode {k}, real return "
-                 f"{number(ep.get('real_return')):.2f}, "
-                 + (f"predicted {pr:.2f}" if pr is not None else "no prediction"), fontsize=12)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
-    save(fig, os.path.join(out, f"trajectories-{k:03d}.png"))
-
-
-def plot_run(run_dir, out, episodes, phi):
-    with open(os.path.join(run_dir, "summary.json")) as f:
-        summary = json.load(f)
-    name = os.path.basename(os.path.normpath(run_dir))
-    hexapod = summary.get("task") == "hexapod"
-    plot_returns(summary, name, out)
-    if phi:
-        plot_phi(summary, phi, out)
-    if hexapod:
-        plot_speed(summary, name, out)
-    for k in episodes:
-        if hexapod:
-            plot_hexapod_trajectory(run_dir, summary, k, out)
-            plot_path(run_dir, summary, k, out)
-            plot_gait(run_dir, summary, k, out)
-        else:
-            plot_trajectory(run_dir, summary, k, out)
+def plot_run(data_json, out):
+    with open(data_json) as f:
+        data = json.load(f)
+    plot_returns(data, out)
+    if data.get("phi_plotted"):
+        plot_phi(data, out)
+    if data["metric"].get("name"):
+        plot_metric(data, out)
+    for key in sorted(data["trajectories"], key=int):
+        k = int(key)
+        plot_trajectory(data, k, out)
+        real, _ = episode_tables(data, k)
+        if all(c in real for c in ("x", "y", "yaw")):
+            plot_path(data, k, out)
+        if any(f"foot{leg}_height" in real for leg in range(6)):
+            plot_gait(data, k, out)
 
 
 def main():
@@ -457,21 +434,17 @@ def main():
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser("report")
-    rep.add_argument("returns_csv")
+    rep.add_argument("table_csv")
     rep.add_argument("output_png")
-    rep.add_argument("--quantity", choices=["return", "speed"], default="return")
+    rep.add_argument("--ylabel", default="return")
     run = sub.add_parser("run")
-    run.add_argument("run_dir")
+    run.add_argument("plot_data")
     run.add_argument("output_dir")
-    run.add_argument("--episodes", default="")
-    run.add_argument("--phi", default="")
     args = parser.parse_args()
     if args.command == "report":
-        plot_report(args.returns_csv, args.output_png, args.quantity)
+        plot_report(args.table_csv, args.output_png, args.ylabel)
     else:
-        episodes = [int(k) for k in args.episodes.split(",") if k]
-        phi = [p for p in args.phi.split(",") if p]
-        plot_run(args.run_dir, args.output_dir, episodes, phi)
+        plot_run(args.plot_data, args.output_dir)
 
 
 if __name__ == "__main__":

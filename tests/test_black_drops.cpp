@@ -4,7 +4,8 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
-#include "drops/io/config.hpp"
+#include "drops/pendubot/pendubot.hpp"
+#include "fixtures.hpp"
 #include "drops/core/rng.hpp"
 
 using namespace drops;
@@ -12,15 +13,12 @@ using namespace drops;
 namespace {
 std::vector<algo::EpisodeRecord> run(int threads, const std::vector<std::string>& overrides) {
   ThreadLimit limit(threads);
-  const auto e = io::make_experiment(io::load_settings("", overrides));
-  auto task = std::make_shared<pendubot::SwingUpTask>(e.task_options);
-  pendubot::PendubotSystem real(e.actual, e.task_options);
-  auto prior = std::make_shared<pendubot::PendubotPrior>(e.task_options);
-  policy::NeuralNetPolicy pol(e.policy);
+  const auto e = fixtures::experiment(overrides);
   std::vector<algo::EpisodeRecord> records;
   algo::BlackDropsCallbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
-  algo::run_black_drops(task, real, pol, prior, e.prior, e.algo, cb);
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
   return records;
 }
 }  // namespace
@@ -62,13 +60,11 @@ TEST(BlackDrops, DifferentSeedsGiveDifferentRuns) {
 // policy is never worse on the model than the start, whatever the selection; without it, a tiny
 // budget from a good start often returns something worse (the situation the option is for).
 TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
-  const auto e = io::make_experiment(io::load_settings(
-      "", {"optimizer.max_evaluations=200", "optimizer.restarts=0"}));
-  auto task = std::make_shared<pendubot::SwingUpTask>(e.task_options);
-  auto prior = std::make_shared<pendubot::PendubotPrior>(e.task_options);
-  policy::NeuralNetPolicy pol(e.policy);
-  const auto model = model::make_prior_only_model(prior, e.prior);
-  auto o = e.algo;
+  const auto e = fixtures::experiment({"optimizer.max_evaluations=200", "optimizer.restarts=0"});
+  const auto& task = e.setup.task;
+  const policy::Policy& pol = *e.setup.policy;
+  const auto model = model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
+  auto o = experiment::black_drops_options(e.settings);
   o.rollouts.sample = false;  // deterministic: one rollout is the exact model return
   o.reevaluation_rollouts = 1;
   auto model_return = [&](const VectorXd& theta) {
@@ -111,13 +107,13 @@ TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
 // the re-evaluated choice has a better mean than the luckiest single evaluation, and its reported
 // value is close to its mean; the luckiest draw over-states its own.
 TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisyModel) {
-  const auto e = io::make_experiment(io::load_settings(
-      "", {"optimizer.max_evaluations=300", "model.type=gp"}));
-  auto task = std::make_shared<pendubot::SwingUpTask>(e.task_options);
-  pendubot::PendubotSystem real(e.actual, e.task_options);
-  policy::NeuralNetPolicy pol(e.policy);
+  const auto e = fixtures::experiment({"optimizer.max_evaluations=300", "model.type=gp"});
+  const auto& task = e.setup.task;
+  const rollout::System& real = *e.setup.real;
+  const policy::Policy& pol = *e.setup.policy;
+  const auto algo_options = experiment::black_drops_options(e.settings);
   // A GP model learned on 3 random episodes: wide predictive variances, so rollouts are noisy.
-  auto model = model::make_model(e.algo.model, task, nullptr, e.prior);
+  auto model = model::make_model(algo_options.model, task, nullptr, e.setup.prior_parameters);
   std::vector<Transition> data;
   for (std::uint64_t k = 0; k < 3; ++k) {
     Rng rng(derive_seed(11, {k}));
@@ -129,7 +125,7 @@ TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisy
   }
   model->learn(data);
   auto oracle = [&](const VectorXd& theta) {
-    rollout::RolloutOptions ro = e.algo.rollouts;
+    rollout::RolloutOptions ro = algo_options.rollouts;
     ro.rollouts = 2000;
     VectorXd r;
     rollout::evaluate_policies(*task, *model, pol, {theta}, {99}, ro, r);
@@ -137,7 +133,7 @@ TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisy
   };
   double margin_sum = 0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    auto o = e.algo;
+    auto o = algo_options;
     o.selection = algo::PolicySelection::kReevaluate;
     const auto s = algo::optimize_policy(*task, *model, pol, VectorXd::Zero(pol.param_dim()), o,
                                          seed, nullptr, nullptr);

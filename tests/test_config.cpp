@@ -1,46 +1,118 @@
-// Configuration: defaults, overrides, and actionable errors for bad input.
+// Configuration: defaults, overrides, and actionable errors for bad input; the schema assembled
+// from the tasks' sections (the registry); task-dependent defaults.
 #include <gtest/gtest.h>
 
 #include "drops/core/errors.hpp"
-#include "drops/io/config.hpp"
+#include "drops/pendubot/pendubot.hpp"
+#include "drops/experiment/campaign.hpp"
+#include "fixtures.hpp"
 
 using namespace drops;
+using drops::fixtures::registry;
+using drops::fixtures::settings;
 
 namespace {
 std::string error_of(const std::string& yaml, const std::vector<std::string>& ov = {}) {
   try {
-    io::make_experiment(io::load_settings(yaml, ov));
+    experiment::make_experiment(registry(), settings(yaml, ov));
   } catch (const ConfigError& e) {
     return e.what();
   }
   return "";
 }
+
+algo::BlackDropsOptions algo_of(const experiment::Settings& s) {
+  return experiment::black_drops_options(s);
+}
+
+/// A task of the tests: its own key, and its own defaults of two shared keys.
+class ToyTask : public experiment::TaskPlugin {
+ public:
+  std::string name() const override { return "toy"; }
+  std::string description() const override { return "a task of the tests"; }
+  std::vector<experiment::KeySpec> keys() const override {
+    return {{"toy.length", "double", "1.5", 0.1, 10, {}, "m", "the toy's length"}};
+  }
+  std::map<std::string, std::string> shared_defaults() const override {
+    return {{"policy.bound", "0.5"},
+            {"optimizer.max_evaluations", "2000"},
+            {"model.rprop.max_length_scale_ratio", "10"},
+            {"model.rprop.penalty", "on"}};
+  }
+  experiment::TaskSetup make(const experiment::Settings&) const override {
+    throw ConfigError("the toy task builds nothing");
+  }
+  std::string prior_label(const experiment::Settings&) const override { return "toy-prior"; }
+  experiment::ReportInfo report_info(const experiment::Settings&) const override { return {}; }
+};
+
+const experiment::Registry& toy_registry() {
+  static const std::unique_ptr<experiment::Registry> r = [] {
+    auto reg = std::make_unique<experiment::Registry>();
+    experiment::register_builtin_algorithms(*reg);
+    pendubot::register_task(*reg);
+    reg->add_task(std::make_unique<ToyTask>());
+    return reg;
+  }();
+  return *r;
+}
 }  // namespace
 
 TEST(Config, DefaultsAreThePaperSettings) {
-  const auto e = io::make_experiment(io::load_settings("", {}));
-  EXPECT_EQ(e.algo.model.type, model::ModelType::kGpMi);
-  EXPECT_EQ(e.prior_preset, "tunable-useful");
-  EXPECT_EQ(e.algo.episodes, 10);
+  const auto e = fixtures::experiment();
+  const auto a = algo_of(e.settings);
+  EXPECT_EQ(e.task, "pendubot");
+  EXPECT_EQ(e.algorithm, "black_drops");
+  EXPECT_EQ(a.model.type, model::ModelType::kGpMi);
+  EXPECT_EQ(e.setup.prior_label, "tunable-useful");
+  EXPECT_EQ(a.episodes, 10);
   EXPECT_EQ(e.seed, 1u);
-  EXPECT_DOUBLE_EQ(e.prior.values[0], 0.65);  // Table I, prior A
-  EXPECT_DOUBLE_EQ(e.prior.values[3], 0.4);
-  EXPECT_EQ(e.prior.tunable, (std::vector<int>{0, 1, 2, 3}));
-  EXPECT_DOUBLE_EQ(e.actual.m1, 0.5);
-  EXPECT_EQ(e.algo.model.rprop.max_iterations, 300);
-  EXPECT_EQ(e.algo.cmaes.max_evaluations, 10000);
-  EXPECT_DOUBLE_EQ(e.algo.theta_bound, 5.0);
+  EXPECT_DOUBLE_EQ(e.setup.prior_parameters.values[0], 0.65);  // Table I, prior A
+  EXPECT_DOUBLE_EQ(e.setup.prior_parameters.values[3], 0.4);
+  EXPECT_EQ(e.setup.prior_parameters.tunable, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_DOUBLE_EQ(e.setup.phi_actual[0], 0.5);
+  EXPECT_EQ(a.model.rprop.max_iterations, 300);
+  EXPECT_EQ(a.cmaes.max_evaluations, 10000);
+  EXPECT_DOUBLE_EQ(a.theta_bound, 5.0);
+}
+
+// One source of each default: the configuration's defaults are the Options structs' own.
+TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
+  const algo::BlackDropsOptions d;
+  const auto a = algo_of(settings(""));
+  EXPECT_EQ(a.episodes, d.episodes);
+  EXPECT_EQ(a.theta_bound, d.theta_bound);
+  EXPECT_EQ(a.model.rprop.tolerance, d.model.rprop.tolerance);
+  EXPECT_EQ(a.model.rprop.max_length_scale_ratio, d.model.rprop.max_length_scale_ratio);
+  EXPECT_EQ(a.model.rprop.penalty, d.model.rprop.penalty);
+  EXPECT_EQ(a.model.gp_mi.max_evaluations, d.model.gp_mi.max_evaluations);
+  EXPECT_EQ(a.model.gp_mi.xtol_rel, d.model.gp_mi.xtol_rel);
+  EXPECT_EQ(a.model.mi.max_evaluations, d.model.mi.max_evaluations);
+  EXPECT_EQ(a.cmaes.max_evaluations, d.cmaes.max_evaluations);
+  EXPECT_EQ(a.cmaes.max_run_evaluations, d.cmaes.max_run_evaluations);
+  EXPECT_EQ(a.cmaes.tol_fun, d.cmaes.tol_fun);
+  EXPECT_EQ(a.cmaes.restart_start, d.cmaes.restart_start);
+  EXPECT_EQ(a.cmaes.stagnation, d.cmaes.stagnation);
+  EXPECT_EQ(a.cmaes.max_restarts, d.cmaes.max_restarts);
+  EXPECT_EQ(a.keep_start_point, d.keep_start_point);
+  EXPECT_EQ(a.selection, d.selection);
+  EXPECT_EQ(a.reevaluation_rollouts, d.reevaluation_rollouts);
+  EXPECT_EQ(a.reevaluation_candidates, d.reevaluation_candidates);
+  EXPECT_EQ(a.rollouts.batch, d.rollouts.batch);
+  EXPECT_EQ(a.predicted_rollouts, d.predicted_rollouts);
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {
-  const auto s = io::load_settings("model: {type: mi}\nprior:\n  preset: tunable\n  m1: 0.6\n",
-                                   {"episodes=3", "prior.bounds.m2=[0.1, 0.9]", "model.type=gp"});
-  const auto e = io::make_experiment(s);
-  EXPECT_EQ(e.algo.model.type, model::ModelType::kGp);
-  EXPECT_EQ(e.algo.episodes, 3);
-  EXPECT_DOUBLE_EQ(e.prior.values[0], 0.6);
-  EXPECT_DOUBLE_EQ(e.prior.values[1], 0.75);
-  EXPECT_DOUBLE_EQ(e.prior.lower[1], 0.1);
+  const auto s = settings("model: {type: mi}\nprior:\n  preset: tunable\n  m1: 0.6\n",
+                          {"episodes=3", "prior.bounds.m2=[0.1, 0.9]", "model.type=gp"});
+  const auto e = experiment::make_experiment(registry(), s);
+  const auto a = algo_of(s);
+  EXPECT_EQ(a.model.type, model::ModelType::kGp);
+  EXPECT_EQ(e.variant, "gp");
+  EXPECT_EQ(a.episodes, 3);
+  EXPECT_DOUBLE_EQ(e.setup.prior_parameters.values[0], 0.6);
+  EXPECT_DOUBLE_EQ(e.setup.prior_parameters.values[1], 0.75);
+  EXPECT_DOUBLE_EQ(e.setup.prior_parameters.lower[1], 0.1);
 }
 
 TEST(Config, UnknownKeyIsNamedWithASuggestion) {
@@ -71,122 +143,141 @@ TEST(Config, WrongTypesAndRangesNameKeyValueAndAllowed) {
   EXPECT_NE(m.find("mapping"), std::string::npos) << m;
   m = error_of("model: {type: [gp}\n");
   EXPECT_NE(m.find("invalid YAML"), std::string::npos) << m;
+  m = error_of("task: cartpole\n");
+  EXPECT_NE(m.find("unknown task (available: pendubot)"), std::string::npos) << m;
+  m = error_of("", {"algorithm=pilco"});
+  EXPECT_NE(m.find("black_drops, direct"), std::string::npos) << m;
 }
 
 TEST(Config, ResolvedYamlRoundTrips) {
-  const auto s = io::load_settings("", {"prior.preset=tunable", "episodes=4"});
-  const auto again = io::load_settings(io::to_yaml(s), {});
+  const auto s = settings("", {"prior.preset=tunable", "episodes=4"});
+  const auto again = settings(experiment::to_yaml(registry(), s));
   EXPECT_EQ(s, again);
 }
 
-TEST(Config, MarkdownListsEveryKey) {
-  const std::string md = io::schema_markdown();
-  for (const auto& k : io::schema()) EXPECT_NE(md.find("`" + k.key + "`"), std::string::npos);
+TEST(Config, MarkdownListsEveryKeyOfEveryTask) {
+  const std::string md = experiment::schema_markdown(toy_registry());
+  for (const auto& k : experiment::schema(toy_registry(), "pendubot"))
+    EXPECT_NE(md.find("`" + k.key + "`"), std::string::npos) << k.key;
+  EXPECT_NE(md.find("`toy.length`"), std::string::npos);
+  EXPECT_NE(md.find("## Task `toy`"), std::string::npos);
 }
 
-TEST(Config, HexapodBuildsTheSevenPriorFamilyAndTaskDefaults) {
-  const auto e = io::make_experiment(io::load_settings("task: hexapod\n", {}));
-  EXPECT_EQ(e.task, "hexapod");
-  EXPECT_EQ(e.prior.names, (std::vector<std::string>{"removed_leg"}));
-  ASSERT_EQ(e.prior.values.size(), 1);
-  EXPECT_EQ(e.prior.values[0], -1.0);  // starts from the intact prior
-  EXPECT_EQ(e.prior.tunable, (std::vector<int>{0}));
-  ASSERT_EQ(e.prior.choices.size(), 1u);
-  EXPECT_EQ(e.prior.choices[0], (std::vector<double>{-1, 0, 1, 2, 3, 4, 5}));
-  EXPECT_EQ(e.prior.lower[0], -1.0);
-  EXPECT_EQ(e.prior.upper[0], 5.0);
-  EXPECT_EQ(e.prior_preset, "intact");
-  EXPECT_EQ(e.phi_actual, (std::vector<double>{-1}));
-  EXPECT_DOUBLE_EQ(e.algo.theta_bound, 0.5);  // gait parameters theta + 0.5 in [0, 1]
-  EXPECT_EQ(e.algo.cmaes.max_evaluations, 2000);
-  EXPECT_EQ(e.hexapod.horizon, 40);
-  // The pendubot keeps its own derived defaults.
-  const auto p = io::make_experiment(io::load_settings("", {}));
-  EXPECT_DOUBLE_EQ(p.algo.theta_bound, 5.0);
-  EXPECT_EQ(p.algo.cmaes.max_evaluations, 10000);
+// The schema is the base keys plus the experiment's task's own: another task's key is refused
+// with the task it belongs to (user input), or dropped from an old run directory's config.yaml.
+TEST(Config, TaskKeysBelongToTheirTask) {
+  const auto& r = toy_registry();
+  const auto toy = experiment::load_settings(r, "task: toy\n", {"toy.length=2"});
+  EXPECT_EQ(toy.at("toy.length"), "2");
+  EXPECT_EQ(toy.count("prior.preset"), 0u);
+  EXPECT_EQ(experiment::load_settings(r, "", {}).count("toy.length"), 0u);
+  try {
+    experiment::load_settings(r, "", {"toy.length=2"});
+    FAIL() << "a toy key was accepted for the pendubot";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("belongs to task 'toy'"), std::string::npos) << e.what();
+  }
+  const auto old = experiment::load_run_settings(r, "task: pendubot\ntoy: {length: 3}\n", {});
+  EXPECT_EQ(old.count("toy.length"), 0u);
+  // A task whose keys collide with the base keys is refused.
+  class Bad : public ToyTask {
+    std::string name() const override { return "bad"; }
+    std::vector<experiment::KeySpec> keys() const override {
+      return {{"episodes", "int", "3", 1, 9, {}, "-", "a base key"}};
+    }
+  };
+  experiment::Registry reg;
+  experiment::register_builtin_algorithms(reg);
+  EXPECT_THROW(reg.add_task(std::make_unique<Bad>()), InvalidArgument);
+}
+
+TEST(Config, TaskDependentDefaultsComeFromTheTaskAndExplicitValuesWin) {
+  const auto& r = toy_registry();
+  const auto toy = experiment::load_settings(r, "task: toy\n", {});
+  const auto a = algo_of(toy);
+  EXPECT_DOUBLE_EQ(a.theta_bound, 0.5);
+  EXPECT_EQ(a.cmaes.max_evaluations, 2000);
+  EXPECT_EQ(a.cmaes.max_run_evaluations, 500);  // a quarter of the task's total
+  EXPECT_TRUE(a.model.rprop.penalty);
+  EXPECT_DOUBLE_EQ(a.model.rprop.max_length_scale_ratio, 10.0);
+  // The pendubot keeps the Options structs' defaults.
+  const auto p = algo_of(experiment::load_settings(r, "", {}));
+  EXPECT_DOUBLE_EQ(p.theta_bound, 5.0);
+  EXPECT_EQ(p.cmaes.max_evaluations, 10000);
+  EXPECT_FALSE(p.model.rprop.penalty);
   // Explicit values win over the derived ones.
-  const auto x = io::make_experiment(
-      io::load_settings("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}));
-  EXPECT_DOUBLE_EQ(x.algo.theta_bound, 0.25);
-  EXPECT_EQ(x.algo.cmaes.max_evaluations, 300);
-  // PILCO's soft walls: on by default for the hexapod only, with its own length-scale ratio.
-  EXPECT_TRUE(e.algo.model.rprop.penalty);
-  EXPECT_DOUBLE_EQ(e.algo.model.rprop.max_length_scale_ratio, 10.0);
-  EXPECT_FALSE(p.algo.model.rprop.penalty);
-  const auto on = io::make_experiment(io::load_settings("", {"model.type=gp", "model.rprop.penalty=on"}));
-  EXPECT_TRUE(on.algo.model.rprop.penalty);
-  EXPECT_DOUBLE_EQ(on.algo.model.rprop.max_length_scale_ratio, 100.0);
+  const auto x = algo_of(experiment::load_settings(
+      r, "task: toy\n", {"policy.bound=0.25", "optimizer.max_evaluations=300",
+                         "model.rprop.penalty=off"}));
+  EXPECT_DOUBLE_EQ(x.theta_bound, 0.25);
+  EXPECT_EQ(x.cmaes.max_evaluations, 300);
+  EXPECT_FALSE(x.model.rprop.penalty);
+  const auto on = algo_of(settings("", {"model.type=gp", "model.rprop.penalty=on"}));
+  EXPECT_TRUE(on.model.rprop.penalty);
+  EXPECT_DOUBLE_EQ(on.model.rprop.max_length_scale_ratio, 100.0);
 }
 
 // A run directory's config.yaml written before the policy-search keys of 2026-11-22 resumes with
 // the search it began with; a config that names the keys (or a user's file) keeps today's.
 TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
-  const std::string old_run = "task: pendubot\noptimizer:\n  max_evaluations: 10000\n  keep_start: false\n";
-  const auto legacy = io::make_experiment(io::load_run_settings(old_run, {"episodes=20"}));
-  EXPECT_EQ(legacy.algo.selection, algo::PolicySelection::kBestSeen);
-  EXPECT_EQ(legacy.algo.cmaes.max_run_evaluations, 0);
-  EXPECT_FALSE(legacy.algo.cmaes.stagnation);
-  EXPECT_EQ(legacy.algo.cmaes.tol_fun, 1e-12);
-  EXPECT_EQ(legacy.algo.cmaes.restart_start, opt::CmaesRestartStart::kRandom);
-  EXPECT_FALSE(legacy.algo.keep_start_point);
-  EXPECT_EQ(legacy.algo.episodes, 20);  // the caller's overrides still apply
-  const auto user = io::make_experiment(io::load_settings(old_run, {}));
-  EXPECT_EQ(user.algo.selection, algo::PolicySelection::kReevaluate);
-  EXPECT_EQ(user.algo.cmaes.max_run_evaluations, 2500);  // a quarter of the total
-  EXPECT_TRUE(user.algo.cmaes.stagnation);
-  EXPECT_EQ(user.algo.cmaes.restart_start, opt::CmaesRestartStart::kMixed);
+  const std::string old_run =
+      "task: pendubot\noptimizer:\n  max_evaluations: 10000\n  keep_start: false\n";
+  const auto legacy = algo_of(experiment::load_run_settings(registry(), old_run, {"episodes=20"}));
+  EXPECT_EQ(legacy.selection, algo::PolicySelection::kBestSeen);
+  EXPECT_EQ(legacy.cmaes.max_run_evaluations, 0);
+  EXPECT_FALSE(legacy.cmaes.stagnation);
+  EXPECT_EQ(legacy.cmaes.tol_fun, 1e-12);
+  EXPECT_EQ(legacy.cmaes.restart_start, opt::CmaesRestartStart::kRandom);
+  EXPECT_FALSE(legacy.keep_start_point);
+  EXPECT_EQ(legacy.episodes, 20);  // the caller's overrides still apply
+  const auto user = algo_of(settings(old_run));
+  EXPECT_EQ(user.selection, algo::PolicySelection::kReevaluate);
+  EXPECT_EQ(user.cmaes.max_run_evaluations, 2500);  // a quarter of the total
+  EXPECT_TRUE(user.cmaes.stagnation);
+  EXPECT_EQ(user.cmaes.restart_start, opt::CmaesRestartStart::kMixed);
   // A run written today names every key: nothing is replaced.
-  const auto now = io::load_settings("", {});
-  EXPECT_EQ(io::load_run_settings(io::to_yaml(now), {}), now);
-  const auto big = io::make_experiment(io::load_settings("", {"optimizer.max_evaluations=40000"}));
-  EXPECT_EQ(big.algo.cmaes.max_run_evaluations, 10000);
-  const auto set = io::make_experiment(
-      io::load_settings("", {"optimizer.max_evaluations=40000", "optimizer.run_evaluations=0"}));
-  EXPECT_EQ(set.algo.cmaes.max_run_evaluations, 0);
+  const auto now = settings("");
+  EXPECT_EQ(experiment::load_run_settings(registry(), experiment::to_yaml(registry(), now), {}),
+            now);
+  const auto big = algo_of(settings("", {"optimizer.max_evaluations=40000"}));
+  EXPECT_EQ(big.cmaes.max_run_evaluations, 10000);
+  const auto set =
+      algo_of(settings("", {"optimizer.max_evaluations=40000", "optimizer.run_evaluations=0"}));
+  EXPECT_EQ(set.cmaes.max_run_evaluations, 0);
 }
 
-// Settings written before a default became task-dependent hold the old value explicitly; once
-// resolved, both compare equal (the campaign relies on this to continue old campaigns).
+// Settings written before a default became task-dependent hold the old value explicitly (and
+// those written before tasks had sections hold every task's keys and "auto"); once resolved,
+// both compare equal (the campaign relies on this to continue old campaigns).
 TEST(Config, ResolvedDerivedDefaultsEqualTheValuesOlderRunsWrote) {
-  io::Settings now = io::load_settings("", {});
-  io::Settings old = io::load_settings("", {"optimizer.max_evaluations=10000", "policy.bound=5"});
-  EXPECT_NE(now, old);
-  io::resolve_derived_defaults(now);
-  io::resolve_derived_defaults(old);
+  const auto now = settings("");
+  const auto old = experiment::load_run_settings(
+      registry(),
+      "task: pendubot\noptimizer: {max_evaluations: 10000, selection: reevaluate, "
+      "run_evaluations: ~, stagnation: true, tol_fun: 0.01, restart_from: mixed}\n"
+      "policy: {bound: 5, hidden_units: 10}\nmodel: {rprop: {penalty: auto, "
+      "max_length_scale_ratio: ~}}\n",
+      {});
   EXPECT_EQ(now.at("optimizer.max_evaluations"), "10000");
   EXPECT_EQ(now.at("policy.bound"), "5");
   EXPECT_EQ(now.at("model.rprop.max_length_scale_ratio"), "100");
-  EXPECT_EQ(now, old);
-  io::Settings hex = io::load_settings("task: hexapod\n", {"policy.bound=0.25"});
-  io::resolve_derived_defaults(hex);
-  EXPECT_EQ(hex.at("policy.bound"), "0.25");  // explicit values stay
-  EXPECT_EQ(hex.at("optimizer.max_evaluations"), "2000");
-  EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "10");
+  EXPECT_EQ(now.at("model.rprop.penalty"), "off");
+  std::string key;
+  EXPECT_TRUE(experiment::same_settings(now, old, {}, &key)) << key;
 }
 
-TEST(Config, HexapodDamageAndPriorChoices) {
-  const auto e = io::make_experiment(io::load_settings(
-      "task: hexapod\nhexapod:\n  damage: {removed_leg: leg5, blocked_leg: leg1, blocked_joint: 2}\n"
-      "  prior: {start: leg0, choices: [leg5, intact, leg0]}\n",
-      {}));
-  EXPECT_EQ(e.hexapod.removed_leg, 5);
-  EXPECT_EQ(e.hexapod.blocked_leg, 1);
-  EXPECT_EQ(e.hexapod.blocked_joint, 2);
-  EXPECT_EQ(e.phi_actual, (std::vector<double>{5}));
-  EXPECT_EQ(e.prior.choices[0], (std::vector<double>{-1, 0, 5}));  // sorted
-  EXPECT_EQ(e.prior.values[0], 0.0);
-  EXPECT_EQ(e.prior_preset, "leg0");
-  // A start outside the family, an impossible damage and an unknown leg name are named.
-  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.start=leg2", "hexapod.prior.choices=[intact]"})
-                .find("hexapod.prior.start"),
-            std::string::npos);
-  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.damage.removed_leg=leg3",
-                                          "hexapod.damage.shortened_leg=leg3"})
-                .find("leg3 is removed"),
-            std::string::npos);
-  const std::string bad = error_of("task: hexapod\n", {"hexapod.damage.removed_leg=leg7"});
-  EXPECT_NE(bad.find("hexapod.damage.removed_leg"), std::string::npos) << bad;
-  EXPECT_NE(bad.find("leg5"), std::string::npos) << bad;  // lists what is allowed
-  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.damge.removed_leg=leg0"}).find("did you mean"),
-            std::string::npos);
+TEST(Config, TheAlgorithmChoosesTheVariantAndItsKeys) {
+  const auto direct = experiment::make_experiment(
+      registry(), settings("", {"algorithm=direct", "optimizer.max_evaluations=40"}));
+  EXPECT_EQ(direct.variant, "direct");
+  EXPECT_FALSE(direct.uses_prior);
+  EXPECT_EQ(direct.runner->name(), "direct");
+  EXPECT_EQ(direct.runner->episodes(), 40);
+  EXPECT_FALSE(direct.runner->resumable());
+  EXPECT_EQ(direct.default_run_name(""), "pendubot-direct-seed1");
+  const auto gp = fixtures::experiment({"model.type=gp", "seed=3"});
+  EXPECT_EQ(gp.default_run_name("x"), "pendubot-gp-seed3-x");
+  EXPECT_EQ(fixtures::experiment().default_run_name(""), "pendubot-gp_mi-tunable-useful-seed1");
+  const std::string m = error_of("", {"algorithm=direct", "direct.start=/nonexistent/policy.csv"});
+  EXPECT_NE(m.find("direct.start"), std::string::npos) << m;
 }

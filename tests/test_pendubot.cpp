@@ -5,7 +5,7 @@
 #include <numbers>
 
 #include "drops/core/errors.hpp"
-#include "pendubot/pendubot.hpp"
+#include "drops/pendubot/pendubot.hpp"
 
 using namespace drops;
 using namespace drops::pendubot;

@@ -15,10 +15,14 @@
 #include <vector>
 
 #include "drops/core/errors.hpp"
-#include "report.hpp"
+#include "drops/experiment/report.hpp"
+#include "figures.hpp"
+#include "fixtures.hpp"
 
 using namespace drops;
-using namespace drops::app;
+using namespace drops::experiment;
+using drops::app::plot_run;
+using drops::app::write_report;
 namespace fs = std::filesystem;
 
 namespace {
@@ -208,7 +212,7 @@ TEST(Quantile, RejectsEmptyInputNanAndPOutsideZeroOne) {
 TEST(Report, ReadsRunStatusEpisodesAndFirstSolve) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const RunResult r = read_run(tmp.path() / "runs" / "gp-tunable-useful-seed2");
+  const RunResult r = read_run(tmp.path() / "runs" / "gp-tunable-useful-seed2", &fixtures::registry());
   EXPECT_EQ(r.status, "complete");
   EXPECT_EQ(r.model_type, "gp");
   EXPECT_EQ(r.prior, "tunable-useful");
@@ -222,7 +226,7 @@ TEST(Report, ReadsRunStatusEpisodesAndFirstSolve) {
   EXPECT_DOUBLE_EQ(r.first_solved_time_s, 7.5);
   EXPECT_EQ(r.phi_tunable, (std::vector<std::string>{"m1"}));
 
-  const RunResult ns = read_run(tmp.path() / "runs" / "gp_mi-tunable-useful-seed5");
+  const RunResult ns = read_run(tmp.path() / "runs" / "gp_mi-tunable-useful-seed5", &fixtures::registry());
   EXPECT_EQ(ns.status, "not started");
   EXPECT_FALSE(ns.started());
   EXPECT_EQ(ns.model_type, "gp_mi");
@@ -231,7 +235,7 @@ TEST(Report, ReadsRunStatusEpisodesAndFirstSolve) {
 TEST(Report, CountsRunsByStatusAndSuccessRates) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   EXPECT_EQ(rep.runs.size(), 11u);
   ASSERT_EQ(rep.groups.size(), 3u);
 
@@ -255,7 +259,7 @@ TEST(Report, CountsRunsByStatusAndSuccessRates) {
 TEST(Report, MedianFirstSolveCountsNeverSolvedAsInfinity) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   // {2, 3, never} -> median 3 (episode), 3 * 2.5 s.
   const GroupReport& b = group(rep, "gp", "tunable-useful");
   EXPECT_DOUBLE_EQ(b.median_first_solve_episode, 3.0);
@@ -271,7 +275,7 @@ TEST(Report, MedianFirstSolveCountsNeverSolvedAsInfinity) {
 TEST(Report, PerEpisodeQuartilesUseTheRunsThatReachedTheEpisode) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   const GroupReport& a = group(rep, "gp_mi", "tunable-useful");
   ASSERT_EQ(a.episodes.size(), 3u);
   // Episode 1: {1, 2, 3, 4} (the failed run counts).
@@ -308,7 +312,7 @@ TEST(Report, PerEpisodeQuartilesUseTheRunsThatReachedTheEpisode) {
 TEST(Report, GroupsFollowTableIOrderThenVariantOrder) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   ASSERT_EQ(rep.groups.size(), 3u);
   EXPECT_EQ(rep.groups[0].variant + "/" + rep.groups[0].prior, "gp_mi/tunable-useful");
   EXPECT_EQ(rep.groups[1].variant + "/" + rep.groups[1].prior, "gp/tunable-useful");
@@ -328,7 +332,7 @@ TEST(Report, ExtraGridAxesSplitTheVariant) {
            "rollouts:\n  count: 1\n");
   fake_run(runs, "b1", "gp_mi", "tunable", 1, "complete", {5, 6}, {true, true},
            "rollouts:\n  count: 3\n");
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   // dt and episodes have one value each; seed, model.type and prior.preset are the usual axes.
   EXPECT_EQ(rep.extra_axes, (std::vector<std::string>{"rollouts.count"}));
   ASSERT_EQ(rep.groups.size(), 2u);
@@ -350,10 +354,25 @@ void fake_hexapod_run(const fs::path& runs, const std::string& name, const std::
                                  "\nmodel:\n  type: " + model +
                                  "\nprior:\n  preset: tunable-useful\nhexapod:\n  damage:\n"
                                  "    removed_leg: " + removed_leg + "\n");
-  nlohmann::json s = {{"task", "hexapod"},       {"model", model},
-                      {"prior", "intact"},       {"seed", seed},
-                      {"episodes_planned", 2},   {"phi_names", {"removed_leg"}},
-                      {"status", "complete"},    {"episodes", nlohmann::json::array()}};
+  // The summary as the hexapod plugin's run directories write it (the core tests have no DART):
+  // the panel is the damage, the metric the walking speed, phi a leg index.
+  const std::string panel = removed_leg == "none" ? "intact" : removed_leg + " removed";
+  nlohmann::json labels = nlohmann::json::array();
+  for (int leg = -1; leg < 6; ++leg)
+    labels.push_back({leg, leg < 0 ? std::string("intact") : "leg" + std::to_string(leg)});
+  nlohmann::json s = {
+      {"task", "hexapod"},        {"algorithm", "black_drops"},
+      {"model", model},           {"uses_prior", true},
+      {"prior", "intact"},        {"seed", seed},
+      {"episodes_planned", 2},    {"phi_names", {"removed_leg"}},
+      {"status", "complete"},     {"episodes", nlohmann::json::array()},
+      {"report",
+       {{"panel", {{"label", panel}, {"rank", removed_leg == "none" ? 0 : 1},
+                   {"title", "real robot: " + panel}}},
+        {"metric", {{"name", "walking_speed_m_s"}, {"label", "walking speed"}, {"unit", "m/s"},
+                    {"file", "speed"}}},
+        {"success_criterion", false},
+        {"phi_value_labels", labels}}}};
   for (std::size_t i = 0; i < speeds.size(); ++i)
     s["episodes"].push_back({{"episode", static_cast<int>(i) + 1},
                              {"interaction_time_s", 4.0 * static_cast<double>(i + 1)},
@@ -380,7 +399,7 @@ TEST(Report, HexapodCampaignAggregatesWalkingSpeedAndThePriorIdentifiedPerDamage
   fake_hexapod_run(runs, "gp_mi-leg5-seed2", "gp_mi", "leg5", 2, {0.0, 0.3}, {-1, 0});
   fake_hexapod_run(runs, "gp_mi-leg5-seed3", "gp_mi", "leg5", 3, {0.2}, {-1});
   fake_hexapod_run(runs, "gp_prior-none-seed1", "gp_prior", "none", 1, {0.05, 0.07}, {-1, -1});
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   EXPECT_TRUE(rep.extra_axes.empty());
   ASSERT_EQ(rep.groups.size(), 2u);
   const GroupReport& g = group(rep, "gp_mi", "leg5 removed");
@@ -388,21 +407,21 @@ TEST(Report, HexapodCampaignAggregatesWalkingSpeedAndThePriorIdentifiedPerDamage
   EXPECT_EQ(g.runs, 3);
   ASSERT_EQ(g.episodes.size(), 2u);
   const EpisodeStats& e1 = g.episodes[0];
-  EXPECT_EQ(e1.speed_runs, 3);
-  EXPECT_NEAR(e1.speed_median, 0.0, 1e-12);
-  EXPECT_NEAR(e1.speed_q25, -0.05, 1e-12);
-  EXPECT_NEAR(e1.speed_q75, 0.1, 1e-12);
+  EXPECT_EQ(e1.metric.runs, 3);
+  EXPECT_NEAR(e1.metric.median, 0.0, 1e-12);
+  EXPECT_NEAR(e1.metric.q25, -0.05, 1e-12);
+  EXPECT_NEAR(e1.metric.q75, 0.1, 1e-12);
   EXPECT_EQ(e1.phi_counts, (std::vector<std::pair<double, int>>{{-1.0, 3}}));
   const EpisodeStats& e2 = g.episodes[1];
-  EXPECT_EQ(e2.speed_runs, 2);
-  EXPECT_NEAR(e2.speed_median, 0.2, 1e-12);
-  EXPECT_NEAR(e2.speed_q25, 0.15, 1e-12);
-  EXPECT_NEAR(e2.speed_q75, 0.25, 1e-12);
+  EXPECT_EQ(e2.metric.runs, 2);
+  EXPECT_NEAR(e2.metric.median, 0.2, 1e-12);
+  EXPECT_NEAR(e2.metric.q25, 0.15, 1e-12);
+  EXPECT_NEAR(e2.metric.q75, 0.25, 1e-12);
   EXPECT_EQ(e2.phi_counts, (std::vector<std::pair<double, int>>{{0.0, 1}, {5.0, 1}}));
-  EXPECT_NEAR(g.median_final_speed_m_s, 0.2, 1e-12);
+  EXPECT_NEAR(g.median_final_metric, 0.2, 1e-12);
   EXPECT_NEAR(group(rep, "gp_prior", "intact").median_final_return, 0.7, 1e-12);
 
-  write_speed_csv(rep, tmp.path() / "speed.csv");
+  EXPECT_TRUE(write_metric_csv(rep, tmp.path() / "speed.csv"));
   auto speed = read_csv(tmp.path() / "speed.csv", 3);
   EXPECT_EQ(speed.size(), 4u);  // 2 groups x 2 episodes
   EXPECT_NEAR(std::stod(speed.at("gp_mi,leg5 removed,2").at("q75")), 0.25, 1e-9);
@@ -411,7 +430,7 @@ TEST(Report, HexapodCampaignAggregatesWalkingSpeedAndThePriorIdentifiedPerDamage
   const std::string md = read(tmp.path() / "report.md");
   EXPECT_NE(md.find("| 2 | leg0 ×1, leg5 ×1 |"), std::string::npos) << md;
   EXPECT_NE(md.find("| 2 | 8.00 | 0.200 [0.150, 0.250] (2 runs) |"), std::string::npos) << md;
-  EXPECT_NE(md.find("### Real robot leg5 removed"), std::string::npos) << md;
+  EXPECT_NE(md.find("### real robot: leg5 removed"), std::string::npos) << md;
   EXPECT_EQ(md.find("solved at least once"), std::string::npos) << "the hexapod has no success";
   // φ is a leg index: no median-φ table (and no single "actual" row, which differs per damage)
   EXPECT_EQ(md.find("actual (real system)"), std::string::npos) << md;
@@ -419,16 +438,16 @@ TEST(Report, HexapodCampaignAggregatesWalkingSpeedAndThePriorIdentifiedPerDamage
 
 TEST(Report, MissingOrEmptyCampaignIsAConfigError) {
   TempDir tmp;
-  EXPECT_THROW(aggregate_campaign(tmp.path() / "nope"), ConfigError);
+  EXPECT_THROW(aggregate_campaign(fixtures::registry(), tmp.path() / "nope"), ConfigError);
   fs::create_directories(tmp.path() / "runs");
-  EXPECT_THROW(aggregate_campaign(tmp.path()), ConfigError);
+  EXPECT_THROW(aggregate_campaign(fixtures::registry(), tmp.path()), ConfigError);
 }
 
 TEST(Report, UnreadableSummaryIsListedButNotCounted) {
   TempDir tmp;
   fake_campaign(tmp.path());
   write(tmp.path() / "runs" / "gp-tunable-useful-seed9" / "summary.json", "{\"status\": ");
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   EXPECT_EQ(rep.runs.size(), 12u);
   const auto it = std::find_if(rep.runs.begin(), rep.runs.end(), [](const RunResult& r) {
     return r.name == "gp-tunable-useful-seed9";
@@ -444,14 +463,15 @@ TEST(Report, UnreadableSummaryIsListedButNotCounted) {
 TEST(Report, CsvFilesHoldTheAggregatedNumbers) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   write_summary_csv(rep, tmp.path() / "summary.csv");
   write_returns_csv(rep, tmp.path() / "returns.csv");
   write_phi_csv(rep, tmp.path() / "phi.csv");
 
   const std::string returns = read(tmp.path() / "returns.csv");
   EXPECT_EQ(returns.substr(0, returns.find('\n')),
-            "variant,prior,episode,interaction_time_s,runs,median,q25,q75");
+            "variant,prior,episode,interaction_time_s,runs,median,q25,q75,variant_label,"
+            "panel_title");
   auto ret = read_csv(tmp.path() / "returns.csv", 3);
   ASSERT_EQ(ret.size(), 9u);  // 3 groups x 3 episodes
   const auto& r1 = ret.at("gp_mi,tunable-useful,1");
@@ -487,10 +507,10 @@ TEST(Report, CsvFilesHoldTheAggregatedNumbers) {
 TEST(Report, MarkdownShowsTwoDecimalsAndNotSolved) {
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   write_report_markdown(rep, tmp.path() / "report.md");
   const std::string md = read(tmp.path() / "report.md");
-  EXPECT_NE(md.find("| gp | A tunable-useful | 3 | 2 | 0.67 (2/3) | 0.33 (1/3) | 3.00 | 7.50 |"),
+  EXPECT_NE(md.find("| gp | A tunable & useful | 3 | 2 | 0.67 (2/3) | 0.33 (1/3) | 3.00 | 7.50 |"),
             std::string::npos)
       << md;
   EXPECT_NE(md.find("| gp_mi | B tunable | 3 | 3 | 0.33 (1/3) | 0.33 (1/3) | not solved | not "
@@ -536,14 +556,14 @@ TEST(Plot, PhiPanelsAreChangingOrTunableComponents) {
   TempDir tmp;
   fake_campaign(tmp.path());
   // φ = (k, 10): m1 changes (and is tunable), b1 is constant and not tunable.
-  const RunResult r = read_run(tmp.path() / "runs" / "gp_mi-tunable-seed1");
+  const RunResult r = read_run(tmp.path() / "runs" / "gp_mi-tunable-seed1", &fixtures::registry());
   EXPECT_EQ(plotted_phi_names(r), (std::vector<std::string>{"m1"}));
   RunResult constant = r;
   for (auto& e : constant.episodes) e.phi = {0.65, 0.1};
   EXPECT_EQ(plotted_phi_names(constant), (std::vector<std::string>{"m1"}));  // tunable
   constant.phi_tunable.clear();
   EXPECT_TRUE(plotted_phi_names(constant).empty());
-  const RunResult gp = read_run(tmp.path() / "runs" / "gp-tunable-useful-seed1");
+  const RunResult gp = read_run(tmp.path() / "runs" / "gp-tunable-useful-seed1", &fixtures::registry());
   EXPECT_TRUE(plotted_phi_names(gp).empty());  // the gp variant uses no prior
 }
 
@@ -577,7 +597,7 @@ TEST(Figures, ReportAndRunFiguresAreWrittenAsPng) {
   if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
   TempDir tmp;
   fake_campaign(tmp.path());
-  const CampaignReport rep = aggregate_campaign(tmp.path());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   const auto files = write_report(rep, tmp.path() / "report", true);
   ASSERT_EQ(files.size(), 5u);
   EXPECT_TRUE(is_png(tmp.path() / "report" / "returns.png"));
@@ -588,13 +608,13 @@ TEST(Figures, ReportAndRunFiguresAreWrittenAsPng) {
     fake_trajectory(run / "episodes" / k / "real.csv");
     fake_trajectory(run / "episodes" / k / "predicted.csv");
   }
-  const auto plots = plot_run(run, "", tmp.path() / "plots");
-  EXPECT_EQ(plots.size(), 4u);  // returns, phi, trajectories of episodes 2 and 3
+  const auto plots = plot_run(fixtures::registry(), run, "", tmp.path() / "plots");
+  EXPECT_EQ(plots.size(), 5u);  // plot-data.json; returns, phi, trajectories of episodes 2 and 3
   for (const char* f : {"returns.png", "phi.png", "trajectories-002.png", "trajectories-003.png"})
     EXPECT_TRUE(is_png(tmp.path() / "plots" / f)) << f;
-  plot_run(run, "1", tmp.path() / "plots");
+  plot_run(fixtures::registry(), run, "1", tmp.path() / "plots");
   EXPECT_TRUE(is_png(tmp.path() / "plots" / "trajectories-001.png"));
-  EXPECT_THROW(plot_run(run, "4", tmp.path() / "plots"), ConfigError);
+  EXPECT_THROW(plot_run(fixtures::registry(), run, "4", tmp.path() / "plots"), ConfigError);
 }
 
 TEST(Figures, HexapodReportAddsTheWalkingSpeedFigure) {
@@ -603,7 +623,7 @@ TEST(Figures, HexapodReportAddsTheWalkingSpeedFigure) {
   const fs::path runs = tmp.path() / "runs";
   fake_hexapod_run(runs, "gp_mi-leg5-seed1", "gp_mi", "leg5", 1, {-0.1, 0.1}, {-1, 5});
   fake_hexapod_run(runs, "gp_mi-none-seed1", "gp_mi", "none", 1, {0.05, 0.2}, {-1, -1});
-  const auto files = write_report(aggregate_campaign(tmp.path()), tmp.path() / "out", true);
+  const auto files = write_report(aggregate_campaign(fixtures::registry(), tmp.path()), tmp.path() / "out", true);
   EXPECT_TRUE(is_png(tmp.path() / "out" / "speed.png"));
   EXPECT_TRUE(is_png(tmp.path() / "out" / "returns.png"));
   EXPECT_TRUE(fs::exists(tmp.path() / "out" / "speed.csv"));

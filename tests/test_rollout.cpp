@@ -5,7 +5,7 @@
 #include "drops/core/parallel.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "pendubot/pendubot.hpp"
+#include "drops/pendubot/pendubot.hpp"
 
 using namespace drops;
 

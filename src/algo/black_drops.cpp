@@ -21,6 +21,22 @@ enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPol
 
 }  // namespace
 
+opt::CmaesOptions policy_search_cmaes_defaults() {
+  opt::CmaesOptions o;
+  o.max_evaluations = 10000;
+  o.max_run_evaluations = o.max_evaluations / 4;
+  o.tol_fun = o.tol_hist_fun = 0.01;
+  o.stagnation = true;
+  o.restart_start = opt::CmaesRestartStart::kMixed;
+  return o;
+}
+
+model::ModelOptions black_drops_model_defaults() {
+  model::ModelOptions o;
+  o.rprop.tolerance = 1e-3;
+  return o;
+}
+
 bool BlackDropsOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& m) {
     if (why) *why = m;
@@ -36,8 +52,21 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   if (rollouts.batch < 1) return fail("rollouts.batch must be >= 1");
   std::string w;
   if (!cmaes.IsValid(&w)) return fail("cmaes: " + w);
-  if (!model.rprop.IsValid(&w)) return fail("rprop: " + w);
+  if (!model.IsValid(&w)) return fail("model: " + w);
+  if (!rollouts.IsValid(&w)) return fail("rollouts: " + w);
   return true;
+}
+
+BlackDrops::BlackDrops(const BlackDropsOptions& options) : options_(options) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw InvalidArgument("Black-DROPS options: " + why);
+}
+
+RunSummary BlackDrops::run(const Problem& problem, const Callbacks& callbacks,
+                           const RunState* resume) const {
+  problem.check();
+  return run_black_drops(problem.task, *problem.real, *problem.policy, problem.prior,
+                         problem.prior_parameters, options_, callbacks, resume);
 }
 
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,

@@ -4,6 +4,10 @@
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
+#ifdef DROPS_WITH_OPENBLAS
+extern "C" void openblas_set_num_threads(int num_threads);
+#endif
+
 namespace drops {
 
 void parallel_for(std::size_t n, const std::function<void(std::size_t)>& body) {
@@ -32,5 +36,11 @@ ThreadLimit::ThreadLimit(int threads) : impl_(std::make_unique<Impl>(threads)) {
 ThreadLimit::~ThreadLimit() = default;
 
 int hardware_threads() { return tbb::info::default_concurrency(); }
+
+void use_single_threaded_blas() {
+#ifdef DROPS_WITH_OPENBLAS
+  openblas_set_num_threads(1);
+#endif
+}
 
 }  // namespace drops

@@ -15,22 +15,10 @@
 #include "drops/core/errors.hpp"
 #include "predict_kernels.hpp"
 
-#ifdef DROPS_WITH_OPENBLAS
-extern "C" void openblas_set_num_threads(int num_threads);
-#endif
 
 namespace drops::gp {
 namespace {
 
-#ifdef DROPS_WITH_OPENBLAS
-// OpenBLAS (Eigen's backend for large products and the Cholesky factorization, see CMakeLists.txt)
-// runs every call on the calling thread: drops parallelises over GPs, rollouts and candidates with
-// oneTBB, and one thread per call keeps each result independent of the machine's core count.
-const bool kOpenBlasSingleThreaded = [] {
-  openblas_set_num_threads(1);
-  return true;
-}();
-#endif
 
 using Eigen::Index;
 using Eigen::MatrixXd;
@@ -90,15 +78,59 @@ void invert_lower(Eigen::Ref<MatrixXd> A) {
 
 Gp::Gp(int input_dim)
     : input_dim_(input_dim),
-      kernel_(input_dim > 0 ? input_dim : 0),
+      kernel_(std::make_unique<SquaredExpArd>(input_dim > 0 ? input_dim : 0)),
       log_sigma_n_(0.5 * std::log(kDefaultNoiseVariance)) {
   if (input_dim < 1) {
     throw InvalidArgument("Gp: input dimension: expected >= 1, got " + std::to_string(input_dim));
   }
+  bind_kernel();
   h_ = VectorXd::Zero(input_dim + 2);  // l = 1, sigma_f = 1
-  h_[input_dim] = 0.5 * std::log(kernel_.signal_variance);
+  h_[input_dim] = 0.5 * std::log(se_->signal_variance);
   h_[input_dim + 1] = log_sigma_n_;
 }
+
+Gp::Gp(const Kernel& kernel)
+    : input_dim_(kernel.input_dim()),
+      kernel_(kernel.clone()),
+      log_sigma_n_(0.5 * std::log(kDefaultNoiseVariance)) {
+  if (input_dim_ < 1) {
+    throw InvalidArgument("Gp: kernel input dimension: expected >= 1, got " +
+                          std::to_string(input_dim_));
+  }
+  bind_kernel();
+  const VectorXd hk = kernel_->h_params();
+  h_.resize(hk.size() + 1);
+  h_.head(hk.size()) = hk;
+  h_[hk.size()] = log_sigma_n_;
+}
+
+Gp::Gp(const Gp& o)
+    : input_dim_(o.input_dim_),
+      kernel_(o.kernel_->clone()),
+      log_sigma_n_(o.log_sigma_n_),
+      h_(o.h_),
+      X_(o.X_),
+      X_mean_(o.X_mean_),
+      Xa_(o.Xa_),
+      y_(o.y_),
+      Kf_(o.Kf_),
+      L_(o.L_),
+      alpha_(o.alpha_),
+      jitter_(o.jitter_) {
+  bind_kernel();
+}
+
+Gp& Gp::operator=(const Gp& o) {
+  if (this != &o) {
+    Gp copy(o);
+    *this = std::move(copy);
+  }
+  return *this;
+}
+
+Gp::~Gp() = default;
+
+void Gp::bind_kernel() { se_ = dynamic_cast<const SquaredExpArd*>(kernel_.get()); }
 
 int Gp::input_dim() const { return input_dim_; }
 int Gp::size() const { return static_cast<int>(X_.rows()); }
@@ -106,7 +138,7 @@ int Gp::size() const { return static_cast<int>(X_.rows()); }
 Eigen::VectorXd Gp::h_params() const { return h_; }
 
 void Gp::set_h_params(const Eigen::VectorXd& h) {
-  check_size("Gp::set_h_params: h (D + 2)", input_dim_ + 2, h.size());
+  check_size("Gp::set_h_params: h (kernel hyper-parameters + 1)", h_.size(), h.size());
   if (!h.allFinite()) {
     throw InvalidArgument("Gp::set_h_params: h: expected finite values, got non-finite entry " +
                           first_non_finite(h));
@@ -125,21 +157,22 @@ void Gp::set_h_params(const Eigen::VectorXd& h) {
 }
 
 void Gp::apply_h(const Eigen::VectorXd& h) {
-  SquaredExpArd k(input_dim_);
-  k.length_scales = h.head(input_dim_).array().exp().matrix();
-  k.signal_variance = std::exp(2.0 * h[input_dim_]);
-  const double log_sn = h[input_dim_ + 1];
+  const Index K = h.size() - 1;
+  std::unique_ptr<Kernel> k = kernel_->clone();
+  k->set_h_params(h.head(K));
+  const double log_sn = h[K];
   if (X_.rows() == 0) {
     kernel_ = std::move(k);
+    bind_kernel();
     log_sigma_n_ = log_sn;
   } else {
-    factorise(k, log_sn, X_, y_);  // throws with the GP unchanged
+    factorise(std::move(k), log_sn, X_, y_);  // throws with the GP unchanged
   }
   // h itself, not log(exp(h)): set_h_params(h_params()) must restore the GP bit for bit (resume).
   h_ = h;
 }
 
-const SquaredExpArd& Gp::kernel() const { return kernel_; }
+const Kernel& Gp::kernel() const { return *kernel_; }
 double Gp::noise_variance() const { return std::exp(2.0 * log_sigma_n_); }
 
 void Gp::compute(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
@@ -151,31 +184,41 @@ void Gp::compute(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
   if (!y.allFinite()) {
     throw InvalidArgument("Gp::compute: y: expected finite values, got " + first_non_finite(y));
   }
-  factorise(kernel_, log_sigma_n_, X, y);
+  factorise(kernel_->clone(), log_sigma_n_, X, y);
 }
 
-void Gp::factorise(const SquaredExpArd& kernel, double log_sigma_n, const Eigen::MatrixXd& X,
-                   const Eigen::VectorXd& y) {
+void Gp::factorise(std::unique_ptr<Kernel> kernel_ptr, double log_sigma_n,
+                   const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
+  const Kernel& kernel = *kernel_ptr;
+  const auto* se = dynamic_cast<const SquaredExpArd*>(&kernel);
   const Index n = X.rows();
-  const double sf2 = kernel.signal_variance;
+  const double sf2 = kernel.variance();
   const double sn2 = std::exp(2.0 * log_sigma_n);
 
-  // Centred, scaled inputs: the kernel is translation invariant and centring limits the cancellation
+  // Centred inputs: the kernels are translation invariant and centring limits the cancellation
   // in |a|^2 + |b|^2 - 2 a.b for inputs far from the origin.
   Eigen::RowVectorXd mu = n > 0 ? Eigen::RowVectorXd(X.colwise().mean())
                                 : Eigen::RowVectorXd(Eigen::RowVectorXd::Zero(X.cols()));
-  MatrixXd Xs = ((X.rowwise() - mu).array().rowwise() / kernel.length_scales.transpose().array())
-                    .matrix();
-  VectorXd sq = Xs.rowwise().squaredNorm();
+  MatrixXd Xs;  // SE-ARD: scaled inputs
+  VectorXd sq;
   MatrixXd Kf(n, n);
-  if (n > 0) {
-    // Squared distances |a|^2 + |b|^2 - 2 a.b (clamped at 0), then the kernel; exactly symmetric.
-    Kf.noalias() = Xs * Xs.transpose();
-    Kf = ((((Kf.array() * -2.0).colwise() + sq.array()).rowwise() + sq.transpose().array())
-              .max(0.0) *
-          -0.5)
-             .exp() *
-         sf2;
+  if (se) {
+    Xs = ((X.rowwise() - mu).array().rowwise() / se->length_scales.transpose().array()).matrix();
+    sq = Xs.rowwise().squaredNorm();
+    if (n > 0) {
+      // Squared distances |a|^2 + |b|^2 - 2 a.b (clamped at 0), then the kernel; exactly symmetric.
+      Kf.noalias() = Xs * Xs.transpose();
+      Kf = ((((Kf.array() * -2.0).colwise() + sq.array()).rowwise() + sq.transpose().array())
+                .max(0.0) *
+            -0.5)
+               .exp() *
+           sf2;
+      Kf.triangularView<Eigen::StrictlyUpper>() = Kf.transpose();
+      Kf.diagonal().setConstant(sf2);
+    }
+  } else if (n > 0) {
+    const MatrixXd Xc = X.rowwise() - mu;
+    Kf = kernel.gram(Xc, Xc);
     Kf.triangularView<Eigen::StrictlyUpper>() = Kf.transpose();
     Kf.diagonal().setConstant(sf2);
   }
@@ -195,7 +238,7 @@ void Gp::factorise(const SquaredExpArd& kernel, double log_sigma_n, const Eigen:
     std::ostringstream os;
     os << "Gp: Cholesky factorisation of K + sigma_n^2 I failed for N = " << n
        << " points (sigma_f^2 = " << sf2 << ", sigma_n^2 = " << sn2
-       << ", length scales = " << kernel.length_scales.transpose()
+       << ", kernel " << kernel.name() << " h = " << kernel.h_params().transpose()
        << ") even with a diagonal jitter up to " << kJitterBase * std::pow(10.0, kJitterRetries - 1)
        << "; the inputs are probably duplicated with near-zero noise or the hyper-parameters are "
           "extreme";
@@ -210,15 +253,20 @@ void Gp::factorise(const SquaredExpArd& kernel, double log_sigma_n, const Eigen:
   }
 
   // Commit (nothing below throws except on allocation failure).
-  kernel_ = kernel;
+  kernel_ = std::move(kernel_ptr);
+  bind_kernel();
   log_sigma_n_ = log_sigma_n;
   if (&X != &X_) X_ = X;
   if (&y != &y_) y_ = y;
   X_mean_ = std::move(mu);
-  Xa_.resize(n, X.cols() + 2);
-  Xa_.leftCols(X.cols()) = Xs;
-  Xa_.col(X.cols()) = -0.5 * sq;
-  Xa_.col(X.cols() + 1).setOnes();
+  if (se_) {
+    Xa_.resize(n, X.cols() + 2);
+    Xa_.leftCols(X.cols()) = Xs;
+    Xa_.col(X.cols()) = -0.5 * sq;
+    Xa_.col(X.cols() + 1).setOnes();
+  } else {
+    Xa_.resize(0, 0);
+  }
   Kf_ = std::move(Kf);
   L_ = std::move(L);
   alpha_ = std::move(alpha);
@@ -248,7 +296,8 @@ double Gp::log_marginal_likelihood() const {
 Eigen::VectorXd Gp::log_marginal_likelihood_gradient() const {
   const Index n = X_.rows();
   const Index D = input_dim_;
-  VectorXd g = VectorXd::Zero(D + 2);
+  const Index K = h_.size() - 1;  // kernel hyper-parameters
+  VectorXd g = VectorXd::Zero(K + 1);
   if (n == 0) return g;
 
   // K^-1 = L^-T L^-1 from the triangular inverse (lower triangle), then W = alpha alpha^T - K^-1.
@@ -260,6 +309,13 @@ Eigen::VectorXd Gp::log_marginal_likelihood_gradient() const {
   W.triangularView<Eigen::StrictlyUpper>() = W.transpose();
   const double trace_w = W.trace();
 
+  if (!se_) {
+    // dK/dlog sigma_n = 2 sigma_n^2 I gives g_n = sigma_n^2 tr(W); the kernel gives the rest.
+    const MatrixXd Xc = X_.rowwise() - X_mean_;
+    g.head(K) = kernel_->gram_gradient(Xc, W);
+    g[K] = noise_variance() * trace_w;
+    return g;
+  }
   // With M = W o Kf (element-wise), dK/dlog l_d = Kf o (a_i - a_j)^2 (a = x_d / l_d):
   //   g_d = 1/2 sum_ij M_ij (a_i - a_j)^2 = sum_i a_i^2 r_i - a^T M a,  r = M 1,
   // with a centred (translation invariance) to limit cancellation. dK/dlog sigma_f = 2 Kf and
@@ -279,7 +335,7 @@ Eigen::VectorXd Gp::log_marginal_likelihood_gradient() const {
 
 void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const {
   check_size("Gp::predict: x (input dimension)", input_dim_, x.size());
-  const double sf2 = kernel_.signal_variance;
+  const double sf2 = kernel_->variance();
   const Index n = X_.rows();
   const Index D = input_dim_;
   if (n == 0) {
@@ -287,11 +343,18 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
     variance = sf2;
     return;
   }
+  if (!se_) {
+    VectorXd k = kernel_->gram((x.transpose() - X_mean_), X_.rowwise() - X_mean_).transpose();
+    mean = k.dot(alpha_);
+    L_.triangularView<Eigen::Lower>().solveInPlace(k);
+    variance = std::max(0.0, sf2 - k.squaredNorm());
+    return;
+  }
   thread_local std::vector<double> buf;
   double* p = scratch(buf, static_cast<std::size_t>(n + D + 2));
   Eigen::Map<VectorXd> qa(p, D + 2);  // [q, 1, -|q|^2 / 2]
   Eigen::Map<VectorXd> k(p + D + 2, n);
-  qa.head(D) = (x - X_mean_.transpose()).cwiseQuotient(kernel_.length_scales);
+  qa.head(D) = (x - X_mean_.transpose()).cwiseQuotient(se_->length_scales);
   qa[D] = 1.0;
   qa[D + 1] = -0.5 * qa.head(D).squaredNorm();
   k.noalias() = Xa_ * qa;  // -1/2 squared scaled distances
@@ -307,13 +370,20 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
   const Index B = Xq.rows();
   const Index n = X_.rows();
   const Index D = input_dim_;
-  const double sf2 = kernel_.signal_variance;
+  const double sf2 = kernel_->variance();
   mean.resize(B);
   variance.resize(B);
   if (B == 0) return;
   if (n == 0) {
     mean.setZero();
     variance.setConstant(sf2);
+    return;
+  }
+  if (!se_) {
+    MatrixXd KT = kernel_->gram(Xq.rowwise() - X_mean_, X_.rowwise() - X_mean_).transpose();
+    mean = KT.transpose() * alpha_;
+    L_.triangularView<Eigen::Lower>().solveInPlace(KT);
+    variance = (sf2 - KT.colwise().squaredNorm().transpose().array()).max(0.0).matrix();
     return;
   }
   const Index Bp = (B + 7) / 8 * 8;  // queries padded to a multiple of 8 (padding rows are 0)
@@ -323,7 +393,7 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
   Eigen::Map<VectorXd> ss(p + Bp * (D + 2), Bp);  // column sums of squares of L^-1 Kq^T
   double* KT = p + Bp * (D + 2) + Bp;             // n x Bp row-major: Kq^T, one query per column
   Qa.topLeftCorner(B, D) =
-      ((Xq.rowwise() - X_mean_).array().rowwise() / kernel_.length_scales.transpose().array())
+      ((Xq.rowwise() - X_mean_).array().rowwise() / se_->length_scales.transpose().array())
           .matrix();
   Qa.col(D).head(B).setOnes();
   Qa.col(D + 1).head(B) = -0.5 * Qa.topLeftCorner(B, D).rowwise().squaredNorm();

@@ -135,7 +135,11 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
     throw InvalidArgument(
         "Gp::optimize_h_params: training points: expected N >= 1 (call compute first), got 0");
   }
-  const Eigen::Index P = input_dim_ + 2;
+  if (options.penalty && !se_) {
+    throw InvalidArgument("Gp::optimize_h_params: the soft walls (penalty) need the SE-ARD kernel, "
+                          "this GP has '" + kernel_->name() + "'");
+  }
+  const Eigen::Index P = h_.size();
   Eigen::VectorXd lo = Eigen::VectorXd::Constant(P, kLogMin);
   Eigen::VectorXd hi = Eigen::VectorXd::Constant(P, kLogMax);
   lo[P - 1] = kLogNoiseStdMin;

@@ -8,6 +8,18 @@
 
 namespace drops::rollout {
 
+bool RolloutOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (rollouts < 1) return fail("rollouts must be >= 1");
+  if (!(clip >= 0)) return fail("clip must be >= 0");
+  if (batch < 1) return fail("batch must be >= 1");
+  return true;
+}
+
+
 Trajectory run_episode(const Task& task, const System& system, const policy::Policy& policy,
                        Rng& rng, long* nonfinite_steps) {
   const int H = task.horizon(), E = task.state_dim(), U = task.action_dim();

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "../fixtures.hpp"
 #include "campaign.hpp"
 #include "drops/core/errors.hpp"
 
@@ -164,10 +165,10 @@ bool have_report() {
 // ---- the campaign file: naming, order, validation (library level, fast) ----
 
 TEST(Campaign, PendubotCampaignNamesRunsLikeTheHandStartedCampaignAndRunsSeedsSlowest) {
-  const auto spec = drops::app::load_campaign_file(std::string(DROPS_SOURCE_DIR) +
-                                                   "/configs/campaign-pendubot.yaml");
+  const auto spec = drops::experiment::load_campaign_file(
+      drops::fixtures::registry(), std::string(DROPS_SOURCE_DIR) + "/configs/campaign-pendubot.yaml");
   EXPECT_EQ(spec.name, "pendubot");
-  const auto runs = drops::app::expand_campaign(spec);
+  const auto runs = drops::experiment::expand_campaign(drops::fixtures::registry(), spec);
   ASSERT_EQ(runs.size(), 80u);
   EXPECT_EQ(runs[0].name, "gp_mi-tunable-useful-seed1");
   EXPECT_EQ(runs[1].name, "gp_mi-tunable-seed1");
@@ -184,15 +185,15 @@ TEST(Campaign, PendubotCampaignNamesRunsLikeTheHandStartedCampaignAndRunsSeedsSl
 }
 
 TEST(Campaign, RunNamesKeepDashesAndReplaceOtherCharacters) {
-  EXPECT_EQ(drops::app::run_name_part("seed", "7"), "seed7");
-  EXPECT_EQ(drops::app::run_name_part("prior.preset", "tunable-useful"), "tunable-useful");
-  EXPECT_EQ(drops::app::run_name_part("prior.tunable", "[m1, m2]"), "m1_m2");
-  EXPECT_EQ(drops::app::run_name_part("model.type", "a b/c"), "a_b_c");
+  EXPECT_EQ(drops::experiment::run_name_part("seed", "7"), "seed7");
+  EXPECT_EQ(drops::experiment::run_name_part("prior.preset", "tunable-useful"), "tunable-useful");
+  EXPECT_EQ(drops::experiment::run_name_part("prior.tunable", "[m1, m2]"), "m1_m2");
+  EXPECT_EQ(drops::experiment::run_name_part("model.type", "a b/c"), "a_b_c");
 }
 
 TEST(Campaign, SeedRangeEqualsTheList) {
-  const auto a = drops::app::parse_campaign("grid: {seed: {first: 3, count: 2}}", "x");
-  const auto b = drops::app::parse_campaign("grid: {seed: [3, 4]}", "x");
+  const auto a = drops::experiment::parse_campaign(drops::fixtures::registry(), "grid: {seed: {first: 3, count: 2}}", "x");
+  const auto b = drops::experiment::parse_campaign(drops::fixtures::registry(), "grid: {seed: [3, 4]}", "x");
   ASSERT_EQ(a.grid.size(), 1u);
   EXPECT_EQ(a.grid[0].values, b.grid[0].values);
 }

@@ -1,6 +1,7 @@
-// `drops direct`: the policy optimized directly on the real system (no model). On the pendubot
-// (fast real episodes): the recorded best episode is the one scored, the search beats the
-// zero policy, the result does not depend on the thread count, and bad input is refused.
+// `drops direct` (= `drops run algorithm=direct`): the policy optimized directly on the real system
+// (no model). On the pendubot (fast real episodes): every evaluation is an episode of the run
+// directory, the recorded best episode is the one scored, the search beats the zero policy, the
+// result does not depend on the thread count, and bad input is refused.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -15,10 +16,10 @@
 #include <unistd.h>
 #include <vector>
 
+#include "../fixtures.hpp"
 #include "drops/core/rng.hpp"
-#include "drops/io/config.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "task_setup.hpp"
 
 namespace fs = std::filesystem;
 
@@ -91,38 +92,53 @@ TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheT
   const auto s1 = read_json(out / "t1" / "summary.json");
   const auto s2 = read_json(out / "t2" / "summary.json");
   EXPECT_EQ(s1["status"], "complete");
-  EXPECT_LE(s1["evaluations"].get<long>(), 600);
+  EXPECT_EQ(s1["algorithm"], "direct");
+  EXPECT_LE(s1["episodes_done"].get<long>(), 600);
   // one seed, one result, whatever the thread count
-  EXPECT_EQ(s1["best_return"].get<double>(), s2["best_return"].get<double>());
-  EXPECT_EQ(s1["theta"], s2["theta"]);
+  EXPECT_EQ(s1["best_real_return"].get<double>(), s2["best_real_return"].get<double>());
+  EXPECT_EQ(s1["search"]["best_theta"], s2["search"]["best_theta"]);
+  EXPECT_EQ(read_json(out / "t1" / "summary.json")["episodes"].size(),
+            s2["episodes"].size());
 
-  // best.csv is the scored episode: its rewards add up to the best return
-  const double best = s1["best_return"].get<double>();
+  // the best episode's trajectory is the scored one: its rewards add up to the best return
+  const double best = s1["best_real_return"].get<double>();
+  const int k = s1["best_episode"].get<int>();
+  char folder[16];
+  std::snprintf(folder, sizeof folder, "%03d", k);
   double sum = 0;
-  for (double r : column(out / "t1" / "best.csv", "reward")) sum += r;
+  for (double r : column(out / "t1" / "episodes" / folder / "real.csv", "reward")) sum += r;
   EXPECT_NEAR(sum, best, 1e-6 * std::max(1.0, std::abs(best)));
 
-  // progress.csv: the best return so far never falls and ends at the summary's
-  const std::vector<double> p = column(out / "t1" / "progress.csv", "best_return");
-  ASSERT_FALSE(p.empty());
-  for (std::size_t i = 1; i < p.size(); ++i) EXPECT_GE(p[i], p[i - 1]);
-  EXPECT_NEAR(p.back(), best, 1e-6 * std::max(1.0, std::abs(best)));
+  // every evaluation is a row of episodes.csv; each improvement keeps its trajectory and the
+  // running best ends at the summary's
+  const std::vector<double> returns = column(out / "t1" / "episodes.csv", "real_return");
+  ASSERT_EQ(static_cast<long>(returns.size()), s1["episodes_done"].get<long>());
+  double running = -1e300;
+  for (std::size_t i = 0; i < returns.size(); ++i) {
+    if (returns[i] > running) {
+      running = returns[i];
+      std::snprintf(folder, sizeof folder, "%03d", static_cast<int>(i + 1));
+      EXPECT_TRUE(fs::exists(out / "t1" / "episodes" / folder / "real.csv")) << i + 1;
+    }
+  }
+  EXPECT_NEAR(running, best, 1e-5 * std::max(1.0, std::abs(best)));
 
   // the search beats the policy at the centre of the box it starts from (theta = 0: no torque)
-  const drops::io::Experiment e = drops::io::make_experiment(drops::io::load_settings("", {}));
-  const drops::app::TaskSetup setup = drops::app::make_task_setup(e);
+  const auto e = drops::fixtures::experiment();
+  const auto& setup = e.setup;
   setup.policy->set_params(drops::VectorXd::Zero(setup.policy->param_dim()));
   drops::Rng rng(1);
   const double zero = drops::rollout::run_episode(*setup.task, *setup.real, *setup.policy, rng)
                           .total_return();
   EXPECT_GT(best, zero + 1.0) << "zero policy " << zero;
-  for (const auto& t : s1["theta"]) EXPECT_LE(std::abs(t.get<double>()), e.algo.theta_bound);
+  const double bound = std::stod(e.settings.at("policy.bound"));
+  for (const auto& t : s1["search"]["best_theta"]) EXPECT_LE(std::abs(t.get<double>()), bound);
 
   // --start from that best policy: evaluated (the pendubot is noise-free: the same return) and
   // kept unless the search beats it, within the same budget
   {
     std::ofstream f(out / "start.csv");
-    for (const auto& t : s1["theta"]) f << fmt_double(t.get<double>()) << "\n";
+    for (const auto& t : s1["search"]["best_theta"]) f << fmt_double(t.get<double>()) << "\n";
   }
   ASSERT_EQ(run("direct --evaluations 30 --seed 4 --start " + (out / "start.csv").string() +
                     " --output " + out.string() + " --name s -q",
@@ -130,9 +146,11 @@ TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheT
             0)
       << err;
   const auto s3 = read_json(out / "s" / "summary.json");
-  EXPECT_NEAR(s3["start_return"].get<double>(), best, 1e-9 * std::max(1.0, std::abs(best)));
-  EXPECT_GE(s3["best_return"].get<double>(), s3["start_return"].get<double>());
-  EXPECT_LE(s3["evaluations"].get<long>(), 30);
+  const double start = s3["search"]["start_return"].get<double>();
+  EXPECT_NEAR(start, best, 1e-9 * std::max(1.0, std::abs(best)));
+  EXPECT_NEAR(s3["episodes"][0]["real_return"].get<double>(), start, 1e-6);  // evaluated first
+  EXPECT_GE(s3["best_real_return"].get<double>(), start);
+  EXPECT_LE(s3["episodes_done"].get<long>(), 30);
   fs::remove_all(out);
 }
 
@@ -156,6 +174,7 @@ TEST(Direct, RefusesABadConfigAndAnExistingResultDirectory) {
                 &err),
             2);
   EXPECT_NE(err.find("holds 2 values; the policy has 81"), std::string::npos) << err;
+  EXPECT_NE(err.find("direct.start"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(out / "b"));  // refused before anything was written
   fs::remove_all(out);
 }

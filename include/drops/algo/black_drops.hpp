@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "drops/algo/algorithm.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/opt/cmaes.hpp"
 #include "drops/policy/policy.hpp"
@@ -26,13 +27,25 @@ enum class PolicySelection {
   kReevaluate,
 };
 
-/// Options of Algorithm 1. Defaults follow settings.md §1 and §5.
+/// The CMA-ES settings of Black-DROPS's policy search (settings.md §5, with the stopping criteria
+/// on the scale of the return that make restarts happen on a noisy objective): BIPOP-aCMA-ES,
+/// 10,000 evaluations in all and 2,500 per run, tol_fun = tol_hist_fun = 0.01, Stagnation,
+/// small-population restarts from the start and large ones from random points. Thread-safe.
+opt::CmaesOptions policy_search_cmaes_defaults();
+
+/// The model settings of Black-DROPS runs: ModelOptions' defaults with Rprop stopping early when
+/// the log-likelihood gains less than 1e-3 over 10 iterations. Thread-safe.
+model::ModelOptions black_drops_model_defaults();
+
+/// Options of Algorithm 1. Defaults follow settings.md §1 and §5 (and are the defaults of the
+/// drops command line on the pendubot).
 struct BlackDropsOptions {
   int episodes = 10;              ///< real episodes in total, including the first one, >= 1
   std::uint64_t seed = 1;         ///< the run's single seed; every random stream derives from it
   double theta_bound = 5.0;       ///< policy parameters searched in [-b, b], > 0
-  model::ModelOptions model;      ///< which model variant and its settings
-  opt::CmaesOptions cmaes;        ///< policy optimizer (seed and sigma0 are set per episode)
+  model::ModelOptions model = black_drops_model_defaults();  ///< which model variant and its settings
+  /// Policy optimizer (seed and sigma0 are set per episode).
+  opt::CmaesOptions cmaes = policy_search_cmaes_defaults();
   rollout::RolloutOptions rollouts;  ///< Monte-Carlo rollouts per policy evaluation
   /// With a prior: number of successive optimizations on the prior alone for episode 1 (the second
   /// restarts from the first's best), >= 1. The reference did 2.
@@ -56,74 +69,10 @@ struct BlackDropsOptions {
   bool IsValid(std::string* why) const;
 };
 
-/// Everything recorded about one real episode. Complete when the on_episode callback receives it.
-struct EpisodeRecord {
-  int episode = 0;                  ///< 1-based
-  double interaction_time = 0;      ///< cumulated real interaction time at the end of it, s
-  rollout::Trajectory real;         ///< on the system
-  rollout::Trajectory predicted;    ///< mean-propagated rollout on the model that chose the policy
-  VectorXd theta;                   ///< policy parameters run (dim param_dim)
-  double real_return = 0;
-  double predicted_return = 0;      ///< mean over predicted_rollouts MC rollouts (NaN if random)
-  bool solved = false;
-  bool random_policy = false;       ///< episode 1 without a prior: random theta
-  VectorXd phi;                     ///< prior parameters of the model that chose the policy
-  model::ModelSummary model;        ///< the learning that preceded this episode (empty for ep. 1)
-  opt::CmaesSummary policy_search;  ///< the optimization that chose theta
-  /// Where theta came from: "start" (the start policy was kept), "best_seen" (a best single
-  /// evaluation), "run_mean" (a CMA-ES run's final mean), "random" (episode 1 without a prior).
-  std::string selected;
-  /// kReevaluate: the chosen policy's mean return over the re-evaluation rollouts (NaN otherwise).
-  double reevaluated_return = 0;
-  int reevaluated_candidates = 0;   ///< kReevaluate: size of the short list
-  double model_seconds = 0;         ///< model learning time before this episode, s
-  double policy_seconds = 0;        ///< policy optimization time, s
-  long evaluations = 0;             ///< policy evaluations (model rollouts / rollouts per eval)
-  long nonfinite_model_steps = 0;   ///< rollout steps stopped by non-finite model predictions
-};
-
-/// Algorithm 1 between two episodes: everything the next episodes depend on. Every random stream
-/// is derived from (seed, episode, ...), so a run continued from the state saved after episode k
-/// produces exactly the episodes k+1.. of an uninterrupted run (drops run --resume).
-struct BlackDropsState {
-  int episodes_done = 0;             ///< completed real episodes (>= 0)
-  std::vector<Transition> data;      ///< every real transition so far, in order
-  VectorXd best_theta;               ///< policy of the best real episode (empty before episode 1)
-  double best_return = -std::numeric_limits<double>::infinity();  ///< its real return
-  int first_solved_episode = 0;      ///< 0 when never solved
-  model::ModelState model;           ///< the model's warm starts after the last learn()
-};
-
-/// Live status for progress displays.
-struct Status {
-  int episode = 0;                  ///< episode being prepared (1-based)
-  std::string phase;                ///< "model", "policy" or "episode"
-  long evaluations = 0;             ///< evaluations in this phase so far
-  double best = 0;                  ///< best score in this phase (model score / predicted return)
-};
-
-/// Hooks through which the caller observes and steers a run. All are called on the caller's thread.
-struct BlackDropsCallbacks {
-  /// After each real episode, with its full record. Persist it here.
-  std::function<void(const EpisodeRecord&)> on_episode;
-  /// Frequently during model learning and policy search.
-  std::function<void(const Status&)> on_status;
-  /// Polled often; returning true interrupts the run after the current step (nothing recorded
-  /// is lost: on_episode has already been called for every finished episode).
-  std::function<bool()> should_stop;
-  /// After on_episode, with the state needed to continue the run from there. Persist it to
-  /// make the run resumable.
-  std::function<void(const BlackDropsState&)> on_state;
-};
-
-/// Result of run_black_drops.
-struct BlackDropsSummary {
-  int episodes_done = 0;
-  bool interrupted = false;
-  int first_solved_episode = 0;   ///< 0 when never solved
-  double best_real_return = 0;
-  double seconds = 0;
-};
+/// Black-DROPS's names for the shared types of algorithm.hpp.
+using BlackDropsState = RunState;
+using BlackDropsCallbacks = Callbacks;
+using BlackDropsSummary = RunSummary;
 
 /// Paper Algorithm 1 with the model variant of options.model.type:
 ///   episode 1: with a prior, optimise the policy on the prior alone; without, random theta;
@@ -142,6 +91,22 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const BlackDropsOptions& options,
                                   const BlackDropsCallbacks& callbacks = {},
                                   const BlackDropsState* resume = nullptr);
+
+/// Algorithm 1 behind the Algorithm interface: run() calls run_black_drops with the problem's
+/// task, real system, policy and prior.
+class BlackDrops final : public Algorithm {
+ public:
+  /// Throws InvalidArgument when options are invalid (the reason from IsValid).
+  explicit BlackDrops(const BlackDropsOptions& options);
+  std::string name() const override { return "black_drops"; }
+  int episodes() const override { return options_.episodes; }
+  RunSummary run(const Problem& problem, const Callbacks& callbacks,
+                 const RunState* resume = nullptr) const override;
+  const BlackDropsOptions& options() const { return options_; }
+
+ private:
+  BlackDropsOptions options_;
+};
 
 /// What optimize_policy chose and how.
 struct PolicySearchResult {

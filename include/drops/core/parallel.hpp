@@ -30,4 +30,12 @@ class ThreadLimit {
 /// Number of hardware threads TBB would use by default.
 int hardware_threads();
 
+/// Makes OpenBLAS (Eigen's backend for large products and the Cholesky factorization, when drops
+/// was built with it, DROPS_BLAS) run each of its calls on the calling thread: drops parallelises
+/// over GPs, rollouts and candidates with parallel_for, and one thread per BLAS call keeps results
+/// independent of the machine's core count. This changes a process-wide OpenBLAS setting, so the
+/// library never calls it by itself: applications call it once from main() (the drops command
+/// line and the test programs do). Does nothing in a build without OpenBLAS. Not thread-safe.
+void use_single_threaded_blas();
+
 }  // namespace drops

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Cholesky>
+#include <memory>
 #include <string>
 
 #include "drops/gp/kernel.hpp"
@@ -49,33 +50,45 @@ struct RpropSummary {
 };
 
 /// Scalar-output GP regression, zero mean on the targets it is given (the caller subtracts the prior
-/// mean M(x, phi) first, paper eq. 4). Hyper-parameters in log space:
-///   h = [log l_1 .. log l_D, log sigma_f, log sigma_n]  (dim D + 2),
-/// sigma_n^2 being the observation-noise variance. Defaults: l = 1, sigma_f^2 = 1, sigma_n^2 = 0.01.
+/// mean M(x, phi) first, paper eq. 4), with any Kernel (kernel.hpp). Hyper-parameters in log space:
+///   h = [kernel h (dim K), log sigma_n]  (dim K + 1),
+/// sigma_n^2 being the observation-noise variance. With the default squared-exponential ARD kernel
+/// (K = D + 1), h = [log l_1 .. log l_D, log sigma_f, log sigma_n] (dim D + 2) and the GP uses
+/// dedicated fast paths (factorisation, gradient, SIMD prediction kernels); other kernels go
+/// through Kernel::gram. Defaults: l = 1, sigma_f^2 = 1, sigma_n^2 = 0.01.
 ///
 /// Usage: set data with compute(X, y), optionally optimize_h_params(), then predict().
 /// After compute(), every const member is thread-safe (predict may run concurrently).
 class Gp {
  public:
-  /// GP on inputs of dimension input_dim (>= 1). Throws InvalidArgument otherwise.
+  /// GP with the squared-exponential ARD kernel on inputs of dimension input_dim (>= 1). Throws
+  /// InvalidArgument otherwise.
   explicit Gp(int input_dim = 1);
+  /// GP with a copy of `kernel` (its current hyper-parameters) and sigma_n^2 = 0.01. Throws
+  /// InvalidArgument when kernel.input_dim() < 1.
+  explicit Gp(const Kernel& kernel);
+  Gp(const Gp& other);
+  Gp& operator=(const Gp& other);
+  Gp(Gp&&) noexcept = default;
+  Gp& operator=(Gp&&) noexcept = default;
+  ~Gp();
 
   /// Input dimension D.
   int input_dim() const;
   /// Number of training points N.
   int size() const;
 
-  /// Hyper-parameters h (dim D + 2, log space, see class comment): exactly the vector last set
+  /// Hyper-parameters h (dim K + 1, log space, see class comment): exactly the vector last set
   /// (set_h_params or Rprop), so set_h_params(h_params()) restores the GP bit for bit.
   Eigen::VectorXd h_params() const;
-  /// Sets h (dim D + 2, finite); if data is present, recomputes the factorisation.
+  /// Sets h (dim K + 1, finite); if data is present, recomputes the factorisation.
   /// Throws InvalidArgument on wrong size, non-finite values or |h_i| so large that exp(2 h_i)
   /// over/underflows (~350); NumericalError if the factorisation fails (the GP is then unchanged).
   void set_h_params(const Eigen::VectorXd& h);
 
-  /// Current kernel (length scales and signal variance sigma_f^2, i.e. exp of h[0..D]).
-  const SquaredExpArd& kernel() const;
-  /// Observation-noise variance sigma_n^2 = exp(2 h[D + 1]).
+  /// Current kernel (its hyper-parameters are the first K entries of h).
+  const Kernel& kernel() const;
+  /// Observation-noise variance sigma_n^2 = exp(2 h[K]).
   double noise_variance() const;
 
   /// Stores training data and factorises K + sigma_n^2 I. X: N x D (one input per row), y: N.
@@ -93,7 +106,7 @@ class Gp {
   /// log p(y | X, h) = -1/2 y^T K^-1 y - 1/2 log|K| - N/2 log 2 pi (paper eq. 5), K including noise
   /// (and the jitter, if the last factorisation needed one). 0 when N = 0. O(N).
   double log_marginal_likelihood() const;
-  /// d log p / d h (dim D + 2), analytic: 1/2 tr((alpha alpha^T - K^-1) dK/dh_j) (Rasmussen &
+  /// d log p / d h (dim K + 1), analytic: 1/2 tr((alpha alpha^T - K^-1) dK/dh_j) (Rasmussen &
   /// Williams 2006, eq. 5.9). The jitter, if any, is treated as a constant. Zero vector when N = 0.
   /// Cost O(N^3) (K^-1 from the Cholesky factor) + O(N^2 D).
   Eigen::VectorXd log_marginal_likelihood_gradient() const;
@@ -102,14 +115,15 @@ class Gp {
   /// iRprop- (Igel & Huesken 2000), starting from
   /// the current h (warm start); one analytic gradient per iteration. On return h is the best iterate
   /// seen and the GP is refactorised with it (alpha, predictions, likelihood all refer to it).
-  /// Box: every iterate after the start is clamped to log l_d in [-10, 10], log sigma_f in [-10, 10],
-  /// log sigma_n in [log 1e-5, 10] (noise std >= 1e-5) to stay numerically safe; a parameter stopped
+  /// Box: every iterate after the start is clamped to [-10, 10] for the kernel's log
+  /// hyper-parameters (SE-ARD: log l_d, log sigma_f) and log sigma_n in [log 1e-5, 10] (noise std
+  /// >= 1e-5) to stay numerically safe; a parameter stopped
   /// by the box keeps a step <= delta0. Stops after options.max_iterations gradient evaluations
   /// (the start included), when every step has shrunk to delta_min, or by the tolerance/patience rule.
   /// An iterate whose Cholesky fails (even after jitter) or whose likelihood/gradient is not finite
   /// counts as -inf: it is counted in cholesky_failures, all steps shrink by eta_minus and the search
-  /// resumes from the best iterate. Requires data (N >= 1). Throws InvalidArgument on invalid options
-  /// or N = 0. Not thread-safe (mutates the GP). Cost per iteration: O(N^3) (Cholesky + K^-1).
+  /// resumes from the best iterate. Requires data (N >= 1). Throws InvalidArgument on invalid options,
+  /// N = 0, or options.penalty with a kernel other than SE-ARD (the walls are defined on its h). Not thread-safe (mutates the GP). Cost per iteration: O(N^3) (Cholesky + K^-1).
   RpropSummary optimize_h_params(const RpropOptions& options = {});
 
   /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise, clamped at >= 0)
@@ -132,13 +146,14 @@ class Gp {
   // Implementation state (see src/gp/gp.cpp). Invariant after construction / compute(): every
   // member below is consistent with (kernel_, log_sigma_n_, X_, y_); a throwing call leaves it intact.
   int input_dim_;
-  SquaredExpArd kernel_;
+  std::unique_ptr<Kernel> kernel_;
+  const SquaredExpArd* se_ = nullptr;  // kernel_ when it is SE-ARD (fast paths), else null
   double log_sigma_n_;
-  Eigen::VectorXd h_;          // D + 2, the log-space h that kernel_ and log_sigma_n_ were made from
+  Eigen::VectorXd h_;          // K + 1, the log-space h that kernel_ and log_sigma_n_ were made from
   Eigen::MatrixXd X_;          // N x D training inputs
   Eigen::RowVectorXd X_mean_;  // D, column means of X_ (centring keeps the distance expansion accurate)
-  // N x (D + 2) augmented scaled inputs [xs, -|xs|^2 / 2, 1] with xs = (x - X_mean_) / l, so that
-  // one product with a query row [q, 1, -|q|^2 / 2] gives -1/2 of the squared scaled distance.
+  // SE-ARD only: N x (D + 2) augmented scaled inputs [xs, -|xs|^2 / 2, 1] with xs = (x - X_mean_) / l,
+  // so that one product with a query row [q, 1, -|q|^2 / 2] gives -1/2 of the squared scaled distance.
   Eigen::MatrixXd Xa_;
   Eigen::VectorXd y_;          // N targets
   Eigen::MatrixXd Kf_;         // N x N noise-free kernel matrix (used by the gradient)
@@ -149,10 +164,12 @@ class Gp {
 
   // Factorises K for (kernel, log_sigma_n, X) with the jitter retries and, on success only, commits
   // kernel, noise, X (unless X aliases X_), X_mean_, Xa_, Kf_, L_, jitter_, y_ and alpha_. Throws NumericalError.
-  void factorise(const SquaredExpArd& kernel, double log_sigma_n, const Eigen::MatrixXd& X,
+  void factorise(std::unique_ptr<Kernel> kernel, double log_sigma_n, const Eigen::MatrixXd& X,
                  const Eigen::VectorXd& y);
   // Applies a log-space h (already validated) and refactorises.
   void apply_h(const Eigen::VectorXd& h);
+  // Points se_ at kernel_ when it is SE-ARD.
+  void bind_kernel();
 };
 
 }  // namespace drops::gp

@@ -1,15 +1,50 @@
 #pragma once
-/// \file Squared-exponential kernel with automatic relevance determination (ARD).
+/// \file Covariance functions behind one interface (limbo's hyper-parameter protocol: h_params() /
+/// set_h_params() in log space), and the squared-exponential ARD kernel of the paper (§IV-A).
 
 #include <Eigen/Core>
+#include <memory>
+#include <string>
 
 namespace drops::gp {
+
+/// A stationary covariance function k(a, b) on inputs of dimension D, with hyper-parameters h
+/// (log space, dim h_dim()) that a Gp fits by maximum likelihood. Implementations are value-like:
+/// const members are thread-safe; clone() gives an independent copy (one per GP).
+class Kernel {
+ public:
+  virtual ~Kernel() = default;
+  /// Independent copy.
+  virtual std::unique_ptr<Kernel> clone() const = 0;
+  /// Short name, e.g. "squared_exp_ard".
+  virtual std::string name() const = 0;
+  /// D, the input dimension.
+  virtual int input_dim() const = 0;
+  /// Number of hyper-parameters.
+  virtual int h_dim() const = 0;
+  /// Hyper-parameters h (dim h_dim(), log space).
+  virtual Eigen::VectorXd h_params() const = 0;
+  /// Sets h (dim h_dim(), finite). Throws InvalidArgument on a wrong size or a non-finite value.
+  virtual void set_h_params(const Eigen::VectorXd& h) = 0;
+  /// k(x, x), the prior variance (the same for every x: stationary kernels).
+  virtual double variance() const = 0;
+  /// k(a, b); a, b: dim D (InvalidArgument otherwise).
+  virtual double operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const = 0;
+  /// Gram matrix K_ij = k(A_i, B_j); A: n x D, B: m x D (one input per row); returns n x m.
+  /// The default calls operator() n m times. Throws InvalidArgument on a column count != D.
+  virtual Eigen::MatrixXd gram(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const;
+  /// The likelihood-gradient contraction g_j = 1/2 sum_ik W_ik dK_ik / dh_j for K = gram(X, X)
+  /// (X: n x D, W: n x n symmetric); returns dim h_dim(). With W = alpha alpha^T - K^-1 this is
+  /// d log p(y | X) / dh_j (Rasmussen & Williams 2006, eq. 5.9).
+  virtual Eigen::VectorXd gram_gradient(const Eigen::MatrixXd& X,
+                                        const Eigen::MatrixXd& W) const = 0;
+};
 
 /// Squared-exponential ARD kernel (Rasmussen & Williams 2006, eq. 5.1; paper §IV-A)
 ///   k(a, b) = sigma_f^2 exp(-1/2 sum_d (a_d - b_d)^2 / l_d^2).
 /// Hyper-parameters live in log space, h = [log l_1 .. log l_D, log sigma_f] (dim D + 1).
-/// Value type; thread-safe for concurrent const use.
-struct SquaredExpArd {
+/// Value type; thread-safe for concurrent const use. Gp has a fast path for this kernel.
+struct SquaredExpArd final : Kernel {
   /// length_scales: l (dim D, > 0), in the units of the inputs.
   Eigen::VectorXd length_scales;
   /// signal_variance: sigma_f^2 (> 0), in squared output units.
@@ -18,9 +53,17 @@ struct SquaredExpArd {
   /// Kernel of dimension `input_dim` with l = 1 and sigma_f^2 = 1 (settings.md §3).
   explicit SquaredExpArd(int input_dim = 0)
       : length_scales(Eigen::VectorXd::Ones(input_dim)) {}
-  int input_dim() const { return static_cast<int>(length_scales.size()); }
-  /// k(a, b); a, b: dim D (InvalidArgument otherwise).
-  double operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const;
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<SquaredExpArd>(*this); }
+  std::string name() const override { return "squared_exp_ard"; }
+  int input_dim() const override { return static_cast<int>(length_scales.size()); }
+  int h_dim() const override { return input_dim() + 1; }
+  Eigen::VectorXd h_params() const override;
+  /// l_d = exp(h_d), sigma_f^2 = exp(2 h_D).
+  void set_h_params(const Eigen::VectorXd& h) override;
+  double variance() const override { return signal_variance; }
+  double operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const override;
+  Eigen::MatrixXd gram(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const override;
+  Eigen::VectorXd gram_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W) const override;
 };
 
 }  // namespace drops::gp

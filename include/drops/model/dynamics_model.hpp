@@ -13,6 +13,7 @@
 
 #include "drops/core/types.hpp"
 #include "drops/gp/gp.hpp"
+#include "drops/model/gp_mi.hpp"
 #include "drops/model/mean_function.hpp"
 #include "drops/rollout/task.hpp"
 
@@ -26,51 +27,13 @@ std::string to_string(ModelType type);
 /// True for the variants that use a simulator prior (all but gp).
 inline bool uses_prior(ModelType t) { return t != ModelType::kGp; }
 
-/// How GP-MI searches phi (paper Algorithm 2). Both maximise the same score
-///   S(phi) = max_{h_1..h_E} log sum_i exp(log p(dx_i | X, h_i, phi)).
-enum class GpMiSearch {
-  /// Paper's nested loops: every Subplex evaluation of phi refits all E kernels with Rprop
-  /// (warm-started from the best kernels so far, inner_rprop_iterations iterations).
-  kNested,
-  /// Block-coordinate ascent on the same score: Subplex over phi with the kernels fixed (each
-  /// evaluation costs N simulator calls and E O(N^2) solves), then refit the kernels at the new
-  /// phi, for up to `rounds` rounds or until phi stops moving. Much cheaper; same fixed points.
-  /// When every tunable parameter is discrete, GP-MI uses kNested instead: with the kernels fitted
-  /// to the starting candidate's residuals, the others are scored against them and the search
-  /// stays at its start (measured on the hexapod's 7 priors).
-  kAlternating,
-};
-
-/// Options of GP-MI (settings.md §4).
-/// How GP-MI combines the E output GPs' log marginal likelihoods l_i into its score.
-enum class GpMiScore {
-  /// log sum_i exp(l_i): the paper's "sum of the likelihoods" (settings.md §4). Dominated by the
-  /// single best-fitting output, so with many outputs that every prior predicts alike (the
-  /// hexapod's 36 joint outputs) it can ignore the outputs that tell the priors apart.
-  kSumOfLikelihoods,
-  /// sum_i l_i: the joint log likelihood of the independent output GPs (the product of the
-  /// likelihoods), which every output informs.
-  kSumOfLogLikelihoods,
-};
-
-struct GpMiOptions {
-  GpMiSearch search = GpMiSearch::kAlternating;
-  GpMiScore score = GpMiScore::kSumOfLikelihoods;  ///< how the per-output likelihoods combine
-  int max_evaluations = 1000;   ///< Subplex evaluations per search (per discrete combination), >= 1
-  double xtol_rel = 1e-4;       ///< Subplex relative tolerance on phi, >= 0
-  double ftol_rel = 1e-4;       ///< Subplex relative tolerance on the score, >= 0
-  int rounds = 5;               ///< alternating search: maximum rounds, >= 1
-  int inner_rprop_iterations = 50;  ///< Rprop iterations of the kernel refits inside the search
-  /// Use at most this many transitions (evenly spaced) inside the phi search; 0 = all. The final
-  /// kernel fit always uses all data.
-  int max_points = 0;
-};
-
 /// Options of MI (settings.md §4): phi minimising sum_n ||M(x_n, u_n; phi) - dx_n||^2.
 struct MiOptions {
   int max_evaluations = 2000;  ///< Subplex evaluations, >= 1
-  double xtol_rel = 1e-6;
-  double ftol_rel = 1e-6;
+  double xtol_rel = 1e-6;      ///< Subplex relative tolerance on phi, >= 0
+  double ftol_rel = 1e-6;      ///< Subplex relative tolerance on the error, >= 0
+  /// Returns true when every field is in range; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
 };
 
 /// Options of every model variant.
@@ -79,6 +42,8 @@ struct ModelOptions {
   gp::RpropOptions rprop;  ///< final kernel fit of each output GP (warm-started across episodes)
   GpMiOptions gp_mi;
   MiOptions mi;
+  /// Returns true when every field is in range; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
 };
 
 /// What learn() did.
@@ -101,9 +66,6 @@ struct ModelState {
   VectorXd phi;                       ///< current prior parameters (dim P; empty for gp)
   std::vector<VectorXd> h_params;     ///< per output GP, log-space kernel hyper-parameters (empty for mi)
 };
-
-/// Progress during learn(): phase ("gp-mi", "kernels", "mi"), evaluations so far, best score.
-using ModelProgress = std::function<void(const std::string& phase, int evaluations, double best)>;
 
 /// A learned one-step model of dx = x_{t+1} - x_t. learn() is not thread-safe; after it, predict()
 /// and predict_batch() are const and thread-safe.
@@ -142,12 +104,5 @@ std::unique_ptr<DynamicsModel> make_model(const ModelOptions& options,
 /// first policy is optimised when a prior exists (paper Algorithm 1, line 1).
 std::unique_ptr<DynamicsModel> make_prior_only_model(std::shared_ptr<const MeanFunction> prior,
                                                      const PriorParameters& parameters);
-
-/// log sum_i exp(v_i), computed stably (max shift). Returns -inf for an empty or all -inf vector.
-double log_sum_exp(const VectorXd& v);
-
-/// GP-MI's score of per-output log likelihoods ll (dim E) under `score` (see GpMiScore); -inf
-/// when any entry is -inf under kSumOfLogLikelihoods. Thread-safe.
-double gp_mi_score(const VectorXd& ll, GpMiScore score);
 
 }  // namespace drops::model

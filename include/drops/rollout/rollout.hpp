@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "drops/model/dynamics_model.hpp"
@@ -31,6 +32,8 @@ struct RolloutOptions {
   /// Rollouts advanced together through batched GP predictions (>= 1). Results do not depend on
   /// the thread count; they may differ from batch = 1 by round-off only.
   int batch = 8;
+  /// Returns true when every field is in range; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
 };
 
 /// The learned model wrapped as a System, so imagined and real episodes share run_episode().

@@ -1,0 +1,32 @@
+#pragma once
+// Pieces shared by the subcommands that take an experiment on the command line (`drops run`,
+// `drops config`, `drops direct`): positional arguments, the settings they resolve to, and the
+// Ctrl-C convention (the first SIGINT asks the command to stop after its current step, a second
+// one kills the process).
+
+#include <string>
+#include <vector>
+
+#include "drops/experiment/config.hpp"
+
+namespace drops::app {
+
+/// Splits positional arguments into an optional config file (the one argument without '=') and
+/// key=value overrides, in order. Throws ConfigError when more than one file is given.
+void split_args(const std::vector<std::string>& args, std::string& file,
+                std::vector<std::string>& overrides);
+
+/// The settings of `file` (empty: the defaults) with `overrides` applied
+/// (experiment::load_settings_file / load_settings; load_run_settings_file when `file` is a run
+/// directory's config.yaml, so that `drops run RUN_DIR/config.yaml` repeats that run). Throws
+/// ConfigError on an unknown key or a bad value (the message names it).
+experiment::Settings settings_from(const experiment::Registry& registry, const std::string& file,
+                                   const std::vector<std::string>& overrides);
+
+/// Installs the SIGINT handler and clears the count: after it, interrupt_requested() is true once
+/// Ctrl-C was pressed; a second Ctrl-C restores the default action and re-raises (the process
+/// ends at once). Call from the main thread; interrupt_requested() is thread-safe.
+void install_interrupt_handler();
+bool interrupt_requested();
+
+}  // namespace drops::app

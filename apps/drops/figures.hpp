@@ -1,0 +1,33 @@
+#pragma once
+// The figures of `drops report` and `drops plot`: the tables and data files of drops::experiment
+// (report.hpp) drawn by python/drops_plot.py through Debian's /usr/bin/python3 (matplotlib).
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "drops/experiment/report.hpp"
+
+namespace drops::app {
+
+/// `drops report`: writes report.md, summary.csv, returns.csv and phi.csv into `out_dir` (created
+/// if needed), plus the task's metric table (e.g. speed.csv) when a group has it, and, when
+/// `figures`, returns.png (and e.g. speed.png). Returns the files written. Throws drops::Error when
+/// a file cannot be written or a figure cannot be drawn (Debian's /usr/bin/python3 with matplotlib
+/// and numpy is needed; the tables are kept). Not thread-safe with another call on `out_dir`.
+std::vector<std::filesystem::path> write_report(const experiment::CampaignReport& report,
+                                                const std::filesystem::path& out_dir,
+                                                bool figures);
+
+/// `drops plot`: writes plot-data.json (experiment::write_plot_data) and draws returns.png,
+/// phi.png (when the run uses a prior), trajectories-NNN.png for each episode of `episodes`
+/// ("1,5,10"; empty = experiment::default_plot_episodes) and the task's own figures into `out_dir`.
+/// Returns the files written. Throws ConfigError when `run_dir` is not a started run directory or
+/// the episode list is invalid, drops::Error when the run has no episode, a trajectory file is
+/// missing or python/matplotlib fails.
+std::vector<std::filesystem::path> plot_run(const experiment::Registry& registry,
+                                            const std::filesystem::path& run_dir,
+                                            const std::string& episodes,
+                                            const std::filesystem::path& out_dir);
+
+}  // namespace drops::app

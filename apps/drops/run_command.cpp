@@ -1,0 +1,221 @@
+// `drops run` (an algorithm on a configured experiment, or --resume of an interrupted run) and
+// `drops config` (the resolved configuration, or the schema as Markdown).
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <iostream>
+#include <optional>
+
+#include "cli_common.hpp"
+#include "command.hpp"
+#include "drops/core/errors.hpp"
+#include "drops/core/parallel.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/experiment/run_directory.hpp"
+
+namespace drops::app {
+namespace {
+
+std::string phi_brief(const VectorXd& phi, const model::PriorParameters& p) {
+  std::string s;
+  for (int i : p.tunable)
+    if (i >= 0 && i < phi.size() && static_cast<std::size_t>(i) < p.names.size())
+      s += fmt::format("{}{}={:.3f}", s.empty() ? "" : " ", p.names[static_cast<std::size_t>(i)],
+                       phi[i]);
+  return s.empty() ? "none" : s;  // no prior (the gp variant, a direct search), hence no phi
+}
+
+struct RunArgs {
+  std::vector<std::string> args;
+  std::optional<std::uint64_t> seed;
+  std::optional<int> threads;
+  std::string output, name, resume;
+  bool quiet = false;
+};
+
+}  // namespace
+
+/// Runs the experiment of `settings` (or continues the run in `resume_dir`), with the progress
+/// display of `drops run`. Shared by `drops run` and `drops direct`.
+int run_experiment(const experiment::Registry& registry, const experiment::Settings& settings,
+                   const std::string& resume_dir, bool quiet) {
+  const experiment::Experiment e = experiment::make_experiment(registry, settings);
+  ThreadLimit threads(e.threads);
+  const bool resuming = !resume_dir.empty();
+  std::unique_ptr<experiment::RunDirectory> dir;
+  algo::RunState state;
+  try {
+    if (resuming) {
+      dir = experiment::RunDirectory::reopen(resume_dir, e, &state);
+    } else {
+      const std::string name =
+          e.name.empty() ? e.default_run_name(experiment::local_timestamp()) : e.name;
+      dir = std::make_unique<experiment::RunDirectory>(std::filesystem::path(e.output) / name,
+                                                       experiment::to_yaml(registry, e.settings),
+                                                       e);
+    }
+  } catch (const experiment::RunDirectoryBusy& ex) {
+    std::cerr << "drops: " << ex.what() << "\n";
+    return 3;
+  }
+  const int episodes = e.runner->episodes();
+  const bool live = !quiet && isatty(STDERR_FILENO);
+  std::cerr << fmt::format("drops run: {} with {}{}, {} episodes, seed {}, {} threads\n", e.task,
+                           e.variant,
+                           e.uses_prior ? fmt::format(" (prior {})", e.setup.prior_label) : "",
+                           episodes, e.seed, e.threads ? e.threads : hardware_threads());
+  std::cerr << "run directory: " << dir->path().string() << "\n";
+  if (resuming) {
+    std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done, episodes);
+    if (state.episodes_done >= episodes) {
+      algo::RunSummary done;
+      done.episodes_done = state.episodes_done;
+      done.first_solved_episode = state.first_solved_episode;
+      done.best_real_return = state.best_return;
+      dir->finish(done, "complete");
+      std::cerr << "nothing to do: the run already has its " << episodes << " episodes\n";
+      return 0;
+    }
+  }
+
+  install_interrupt_handler();
+  auto last = std::chrono::steady_clock::now();
+  algo::Callbacks cb;
+  cb.should_stop = [] { return interrupt_requested(); };
+  cb.on_status = [&](const algo::Status& s) {
+    if (!live) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last < std::chrono::milliseconds(100)) return;
+    last = now;
+    const std::string what =
+        s.phase == "model"
+            ? fmt::format("learning model: {} phi evaluations, score {:.2f}", s.evaluations, s.best)
+        : s.phase == "policy"
+            ? fmt::format("policy search: {} evaluations, best return {:.2f}", s.evaluations,
+                          s.best)
+            : std::string("running the episode");
+    std::cerr << fmt::format("\r\033[K[episode {}/{}] {}", s.episode, episodes, what)
+              << std::flush;
+  };
+  cb.on_episode = [&](const algo::EpisodeRecord& r) {
+    dir->record(r);
+    if (live) std::cerr << "\r\033[K";
+    // A direct search reports the episodes that improved on the best (every other is recorded).
+    if (quiet || !r.keep_trajectories) return;
+    std::cerr << fmt::format(
+        "episode {:>2}/{}  t={:5.1f} s  return {:6.2f}  predicted {:6.2f}  solved {}  phi [{}]  "
+        "model {:.1f} s  policy {:.1f} s  {} evals{}\n",
+        r.episode, episodes, r.interaction_time, r.real_return, r.predicted_return,
+        r.solved ? "yes" : "no ", phi_brief(r.phi, e.setup.prior_parameters), r.model_seconds,
+        r.policy_seconds, r.evaluations, r.selected == "start" ? "  (best policy kept)" : "");
+  };
+  cb.on_state = [&](const algo::RunState& st) { dir->save_state(st); };
+
+  algo::RunSummary summary;
+  try {
+    summary = e.runner->run(e.setup.problem(), cb, resuming ? &state : nullptr);
+  } catch (const std::exception& ex) {
+    if (live) std::cerr << "\r\033[K";
+    dir->finish(summary, "failed", ex.what());
+    throw;
+  }
+  if (live) std::cerr << "\r\033[K";
+  dir->finish(summary, summary.interrupted ? "interrupted" : "complete");
+  std::cerr << fmt::format("{}: {}; results in {}\n",
+                           summary.interrupted ? "interrupted" : "done", summary.BriefReport(),
+                           dir->path().string());
+  if (summary.interrupted) {
+    if (e.runner->resumable() && summary.episodes_done > 0)
+      std::cerr << "continue it with: drops run --resume " << dir->path().string() << "\n";
+    else if (e.runner->resumable())
+      std::cerr << "no episode finished: start the run again (remove " << dir->path().string()
+                << ")\n";
+  }
+  return summary.interrupted ? 130 : 0;
+}
+
+namespace {
+
+int run_main(const experiment::Registry& registry, const RunArgs& a) {
+  std::string file;
+  std::vector<std::string> overrides;
+  split_args(a.args, file, overrides);
+  if (a.threads) overrides.push_back("threads=" + std::to_string(*a.threads));
+
+  experiment::Settings settings;
+  const bool resuming = !a.resume.empty();
+  if (resuming) {
+    if (!file.empty())
+      throw ConfigError("--resume takes the run directory's own config.yaml; drop '" + file + "'");
+    if (a.seed || !a.output.empty() || !a.name.empty())
+      throw ConfigError("--resume continues a run as configured; --seed, --output and --name "
+                        "cannot be changed");
+    for (const auto& o : overrides) {
+      const std::string key = o.substr(0, o.find('='));
+      if (key != "episodes" && key != "threads")
+        throw ConfigError("--resume can only change episodes= and threads=, not '" + key + "'");
+    }
+    const std::filesystem::path d(a.resume);
+    if (!std::filesystem::exists(d / "config.yaml"))
+      throw Error(d.string() + " is not a run directory (no config.yaml)");
+    settings = experiment::load_run_settings_file(registry, (d / "config.yaml").string(), overrides);
+  } else {
+    if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
+    if (!a.output.empty()) overrides.push_back("output=" + a.output);
+    if (!a.name.empty()) overrides.push_back("name=" + a.name);
+    settings = settings_from(registry, file, overrides);
+  }
+  return run_experiment(registry, settings, a.resume, a.quiet);
+}
+
+}  // namespace
+
+void add_run_command(CLI::App& app, Action& action, const experiment::Registry& registry) {
+  auto* run = app.add_subcommand(
+      "run",
+      "Run an algorithm on an experiment. Without arguments: the default experiment (the "
+      "first task, Black-DROPS with GP-MI, 10 episodes, seed 1). Exit codes: 0 done, 1 error, "
+      "2 configuration error, 3 run directory in use, 130 interrupted (resumable).");
+  auto args = std::make_shared<RunArgs>();
+  run->add_option("args", args->args,
+                  "[CONFIG.yaml] [key=value ...] (see 'drops config --markdown')");
+  run->add_option("--seed", args->seed, "seed of the run (same as seed=N)");
+  run->add_option("--threads", args->threads, "worker threads, 0 = all (same as threads=N)");
+  run->add_option("--output", args->output, "parent directory of the run directory (default runs)");
+  run->add_option("--name", args->name, "name of the run directory");
+  run->add_option("--resume", args->resume,
+                  "continue the interrupted run in this directory from its last finished episode "
+                  "(same results as an uninterrupted run; episodes=N may extend it)");
+  run->add_flag("-q,--quiet", args->quiet, "only the final line on stderr");
+  run->callback([&action, &registry, args] {
+    action = [&registry, args] { return run_main(registry, *args); };
+  });
+}
+
+void add_config_command(CLI::App& app, Action& action, const experiment::Registry& registry) {
+  auto* config = app.add_subcommand(
+      "config", "Print the resolved configuration (defaults, a config file and overrides applied)");
+  auto args = std::make_shared<std::vector<std::string>>();
+  auto markdown = std::make_shared<bool>(false);
+  config->add_option("args", *args, "[CONFIG.yaml] [key=value ...]");
+  config->add_flag("--markdown", *markdown, "print every key of every task as Markdown tables");
+  config->callback([&action, &registry, args, markdown] {
+    action = [&registry, args, markdown] {
+      if (*markdown) {
+        std::cout << experiment::schema_markdown(registry);
+        return 0;
+      }
+      std::string file;
+      std::vector<std::string> overrides;
+      split_args(*args, file, overrides);
+      const auto s = settings_from(registry, file, overrides);
+      experiment::make_experiment(registry, s);  // full validation
+      std::cout << experiment::to_yaml(registry, s);
+      return 0;
+    };
+  });
+}
+
+}  // namespace drops::app

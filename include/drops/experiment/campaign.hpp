@@ -1,0 +1,93 @@
+#pragma once
+/// \file The campaign file (docs/campaigns.md): a grid of experiments, its one parser and expansion
+/// into runs, and the comparison of a run's settings with an existing run directory's. Both
+/// `drops campaign` (which runs it) and `drops report` (which reads it back) use this.
+///
+///   name: pendubot            # campaign directory name (default: the file's stem)
+///   output: campaigns         # parent directory
+///   jobs: 2                   # runs at once (local)
+///   threads: 1                # worker threads of each run
+///   grid: {model.type: [gp_mi, mi], seed: {first: 1, count: 5}}
+///   settings: {task: pendubot, episodes: 15}
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "drops/experiment/config.hpp"
+
+namespace drops::experiment {
+
+class Registry;
+
+/// One axis of a campaign grid: a drops config key and the values it takes.
+struct GridAxis {
+  std::string key;                  ///< dotted drops config key, e.g. "model.type"
+  std::vector<std::string> values;  ///< each value as YAML text (scalars unquoted), file order
+};
+
+/// A parsed and checked campaign file.
+struct CampaignSpec {
+  std::string name;                  ///< campaign directory name (default: the file's stem)
+  std::string output = "campaigns";  ///< parent directory; the campaign is <output>/<name>
+  int jobs = 0;                      ///< parallel local runs; 0 = hardware threads / threads
+  int threads = 1;                   ///< worker threads of each run (>= 1)
+  std::vector<GridAxis> grid;        ///< axes in file order (at least one)
+  std::string settings_yaml;         ///< the `settings:` block (shared by every run) as YAML
+};
+
+/// One run of a campaign, resolved and validated.
+struct CampaignRun {
+  std::string name;   ///< run name, e.g. "gp_mi-tunable-useful-seed1"
+  Settings settings;  ///< every key; output "runs", name = the run name, threads per run
+  std::vector<std::pair<std::string, std::string>> values;  ///< this run's grid values (file order)
+};
+
+/// Config keys that a campaign sets for every run (directory and threads); they may not appear in
+/// its grid or settings.
+const std::vector<std::string>& campaign_owned_keys();
+
+/// Parses a campaign file's text. default_name: the name used when the file has no `name`.
+/// Checks every key (unknown keys get a did-you-mean), the grid's shape (lists of distinct values,
+/// or {first: N, count: M[, step: S]} for integer ranges) and, with `validate`, each grid value
+/// against the schema of the campaign's task. Without `validate` (reading a campaign back, perhaps
+/// of a task this build does not offer) the grid's keys are taken as written: every mapping that
+/// is not a range spells a dotted key. Throws ConfigError naming the key, the value and what is
+/// allowed. Thread-safe.
+CampaignSpec parse_campaign(const Registry& registry, const std::string& yaml_text,
+                            const std::string& default_name, bool validate = true);
+
+/// Reads and parses a campaign file (default name: the file's stem). Throws ConfigError (with the
+/// file name) when it cannot be read or is invalid. Thread-safe.
+CampaignSpec load_campaign_file(const Registry& registry, const std::string& path,
+                                bool validate = true);
+
+/// Every run of the campaign in execution order: the `seed` axis varies slowest, the other axes
+/// in file order with the last one fastest. Each run's Settings are loaded and validated in full
+/// (load_settings); with `build`, each experiment is also built (make_experiment), which checks
+/// what the schema alone cannot. Run names join the grid values in file order with '-' (seed N is
+/// written "seedN"; other characters outside [A-Za-z0-9_.-] become '_'). Throws ConfigError
+/// naming the run and the key.
+std::vector<CampaignRun> expand_campaign(const Registry& registry, const CampaignSpec& spec,
+                                         bool build = true);
+
+/// The part of a run name contributed by one grid value (see expand_campaign).
+std::string run_name_part(const std::string& key, const std::string& value_text);
+
+/// True when a and b hold the same value for every key except those in `ignore`; numbers are
+/// compared as numbers ("1e-3" == "0.001"), lists element by element, an empty value equals a
+/// null one. On a difference, stores the first differing key in *key (when key is not null).
+/// Thread-safe.
+bool same_settings(const Settings& a, const Settings& b, const std::vector<std::string>& ignore,
+                   std::string* key = nullptr);
+
+/// Whether two setting values (YAML text) are the same: numbers as numbers, lists element by
+/// element, an empty value equal to a null one. Thread-safe.
+bool same_setting_value(const std::string& a, const std::string& b);
+
+/// Why two campaign specs describe different campaigns: "" when only jobs, threads, name or
+/// output differ, else a sentence naming the first difference (an axis, its values, a setting).
+std::string campaign_difference(const Registry& registry, const CampaignSpec& a,
+                                const CampaignSpec& b);
+
+}  // namespace drops::experiment

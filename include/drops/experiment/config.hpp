@@ -1,0 +1,105 @@
+#pragma once
+/// \file Experiment configuration: a schema of every key (type, default, range, unit, meaning)
+/// assembled from the sections that the experiment, the algorithms and the tasks contribute (the
+/// registry, registry.hpp), YAML loading with key=value overrides, validation with actionable
+/// messages, and the resolved settings. docs/configuration.md is generated from the same schema
+/// (drops config --markdown).
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace drops::experiment {
+
+class Registry;
+
+/// One configuration key.
+struct KeySpec {
+  std::string key;            ///< dotted path, e.g. "model.type"
+  std::string type;           ///< "int", "double", "bool", "string", "enum", "names", "interval"
+  std::string default_value;  ///< as YAML text ("" = derived, see doc)
+  double min = 0, max = 0;    ///< numeric range (inclusive) when min < max
+  std::vector<std::string> allowed;  ///< enum values, or the names allowed in a "names" list
+  std::string unit;           ///< physical unit or "-"
+  std::string doc;            ///< meaning
+};
+
+/// A validated set of values for every key of an experiment's schema (defaults filled in), as
+/// YAML scalars/sequences in text form, keyed by dotted path.
+using Settings = std::map<std::string, std::string>;
+
+/// " (did you mean 'x'?)" naming the candidate closest to word by edit distance (Levenshtein) when
+/// it is within 4 edits, else "". Used for every unknown-key message. Thread-safe.
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates);
+
+/// The keys of the experiment itself (task, algorithm, seed, episodes, threads, output, name) and
+/// of the model-based policy search shared by the algorithms (model.*, policy.bound, optimizer.*,
+/// rollouts.*), in documentation order; defaults come from the algorithms' Options structs.
+/// Keys whose default depends on the task have an empty default here (see
+/// TaskPlugin::shared_defaults). Thread-safe.
+const std::vector<KeySpec>& base_keys();
+
+/// The schema of an experiment on `task` (a registered task): base_keys(), every registered
+/// algorithm's keys, then the task's own keys. Throws ConfigError when the task is unknown.
+std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
+
+/// How load_settings treats keys that belong to another registered task than the experiment's.
+enum class ForeignKeys {
+  kReject,  ///< a ConfigError naming the task the key belongs to (user input)
+  kDrop,    ///< ignored (the config.yaml of run directories written before tasks had sections)
+};
+
+/// Reads a YAML document (text) and applies key=value overrides (value parsed as YAML, so
+/// "prior.bounds.m1=[0.1, 1]" works). The task is the value of `task` after the overrides
+/// (default: the registry's default task); its schema (schema()) decides which keys exist. Fills
+/// the defaults and resolves the task-dependent ones (resolve_derived_defaults). Throws ConfigError
+/// naming the key, the value and what is allowed for unknown keys, wrong types and out-of-range
+/// values. An empty text gives the defaults.
+Settings load_settings(const Registry& registry, const std::string& yaml_text,
+                       const std::vector<std::string>& overrides,
+                       ForeignKeys foreign = ForeignKeys::kReject);
+/// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
+Settings load_settings_file(const Registry& registry, const std::string& path,
+                            const std::vector<std::string>& overrides);
+
+/// As load_settings, for the config.yaml of a run directory (every key resolved by the drops that
+/// wrote it). Keys of other tasks are dropped (run directories written before tasks had their own
+/// sections hold every task's keys). A key added to drops after that run was written, whose
+/// default changed what a run does, gets the value that reproduces the old behaviour instead of
+/// today's default: the policy search keys of 2026-11-22 (optimizer.selection best_seen,
+/// optimizer.run_evaluations 0, optimizer.stagnation false, optimizer.tol_fun 1e-12,
+/// optimizer.restart_from random). So a resumed or repeated old run goes on as it began, and a
+/// campaign sees that it differs from one with today's defaults. Throws as load_settings.
+Settings load_run_settings(const Registry& registry, const std::string& yaml_text,
+                           const std::vector<std::string>& overrides);
+/// load_run_settings of a file (errors name the file).
+Settings load_run_settings_file(const Registry& registry, const std::string& path,
+                                const std::vector<std::string>& overrides);
+/// True when `path` is the config.yaml of a run directory (its folder holds episodes.csv or
+/// summary.json).
+bool is_run_config(const std::string& path);
+
+/// Replaces the empty value of each key whose default depends on the task by the task's value
+/// (TaskPlugin::shared_defaults), and optimizer.run_evaluations by a quarter of
+/// optimizer.max_evaluations, so that settings written before a default became task-dependent
+/// compare equal to today's. Leaves settings of an unknown task unchanged. Thread-safe.
+void resolve_derived_defaults(const Registry& registry, Settings& settings);
+
+/// Settings as a nested YAML document in schema order (the resolved config written into each run
+/// directory). Keys missing from the schema of settings' task are written last, in key order.
+std::string to_yaml(const Registry& registry, const Settings& settings);
+
+/// The schema of every registered task as Markdown: the experiment's and algorithms' keys, then one
+/// table per task (docs/configuration.md).
+std::string schema_markdown(const Registry& registry);
+
+// Typed access to validated settings (keys must exist: std::out_of_range otherwise).
+double get_double(const Settings& s, const std::string& key);
+long long get_int(const Settings& s, const std::string& key);
+bool get_bool(const Settings& s, const std::string& key);
+/// The numbers of an "interval" value ("[lower, upper]").
+std::vector<double> get_interval(const Settings& s, const std::string& key);
+/// The entries of a "names" value ("[a, b]").
+std::vector<std::string> get_names(const Settings& s, const std::string& key);
+
+}  // namespace drops::experiment

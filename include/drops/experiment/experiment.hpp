@@ -1,0 +1,47 @@
+#pragma once
+/// \file An experiment resolved from its settings: the task built by its plugin and the algorithm
+/// built by its plugin, plus what every run records (seed, threads, names).
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "drops/algo/black_drops.hpp"
+#include "drops/algo/direct_search.hpp"
+#include "drops/experiment/config.hpp"
+#include "drops/experiment/registry.hpp"
+
+namespace drops::experiment {
+
+/// The experiment described by settings (make_experiment).
+struct Experiment {
+  Settings settings;          ///< resolved, every key of the task's schema
+  std::string task;           ///< task name
+  std::string algorithm;      ///< algorithm name
+  std::string variant;        ///< AlgorithmPlugin::variant (e.g. "gp_mi")
+  bool uses_prior = true;     ///< AlgorithmPlugin::uses_prior
+  std::uint64_t seed = 1;
+  int threads = 0;            ///< 0 = all hardware threads
+  std::string output = "runs";
+  std::string name;           ///< run directory name ("" = default_run_name())
+  TaskSetup setup;
+  ReportInfo report;          ///< TaskPlugin::report_info of the settings
+  std::unique_ptr<algo::Algorithm> runner;  ///< the configured algorithm
+  /// "<task>-<variant>-<prior>-seed<seed>" (without the prior when the algorithm uses none),
+  /// followed by "-" and `stamp` when not empty.
+  std::string default_run_name(const std::string& stamp) const;
+};
+
+/// Builds the experiment of validated settings (load_settings): the task (TaskPlugin::make) and
+/// the algorithm (AlgorithmPlugin::make). Throws ConfigError for combinations the schema cannot
+/// check alone (the message names the key).
+Experiment make_experiment(const Registry& registry, const Settings& settings);
+
+/// The options of Algorithm 1 from settings (model.*, policy.bound, optimizer.*, rollouts.*,
+/// episodes, seed). Throws ConfigError when they are invalid (BlackDropsOptions::IsValid).
+algo::BlackDropsOptions black_drops_options(const Settings& settings);
+
+/// The CMA-ES options of the optimizer.* keys. Thread-safe.
+opt::CmaesOptions cmaes_options(const Settings& settings);
+
+}  // namespace drops::experiment

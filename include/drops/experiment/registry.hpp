@@ -1,0 +1,169 @@
+#pragma once
+/// \file Tasks and algorithms as plugins. A task (the pendubot, the hexapod, your own robot)
+/// contributes its configuration keys and builds, from validated settings, everything an
+/// experiment needs: the task, the real system, the policy family, the simulator prior and the
+/// names the run directory writes. An algorithm contributes its keys and builds an
+/// algo::Algorithm. Registration is explicit: the application's main() calls each task's
+/// register function (e.g. drops::pendubot::register_task(registry)); nothing registers itself.
+
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drops/algo/algorithm.hpp"
+#include "drops/experiment/config.hpp"
+
+namespace drops::experiment {
+
+/// A per-episode quantity that a task reports next to the return (e.g. the hexapod's walking
+/// speed): one of TaskSetup::metric_names, with how reports label it. Empty name: none.
+struct ReportMetric {
+  std::string name;   ///< a metric name, e.g. "walking_speed_m_s"
+  std::string label;  ///< e.g. "walking speed"
+  std::string unit;   ///< e.g. "m/s"
+  std::string file;   ///< stem of the report's table and figure, e.g. "speed" (speed.csv, speed.png)
+  /// The metric of the model's prediction of the same quantity, drawn beside it (optional), e.g.
+  /// "predicted_speed_m_s".
+  std::string predicted;
+  /// A reference value drawn as a line (NaN: none), e.g. the paper's 0.22 m/s, and its label.
+  double reference = std::numeric_limits<double>::quiet_NaN();
+  std::string reference_label;
+};
+
+/// Where a run appears in a campaign report: one panel per distinct `label`, panels sorted by
+/// `rank`, then label (e.g. the pendubot's priors in Table I order, A to D).
+struct Panel {
+  std::string label;  ///< e.g. "tunable-useful" or "leg5 removed"
+  int rank = 0;
+  std::string title;  ///< the figure's panel title, e.g. "A: tunable & useful" (empty: label)
+};
+
+/// How reports show the runs of a task (TaskPlugin::report_info), recorded in each run's
+/// summary.json.
+struct ReportInfo {
+  Panel panel;                  ///< the run's panel
+  ReportMetric metric;          ///< shown next to the return (optional)
+  bool success_criterion = true;  ///< whether "solved" means something for this task's reports
+  /// Labels of the values of a discrete phi's first entry (e.g. -1 -> "intact", 5 -> "leg5");
+  /// not empty exactly when phi is discrete (reports then count runs per value instead of
+  /// taking medians).
+  std::map<double, std::string> phi_value_labels;
+  /// Names of the tunable entries of phi (the plots draw them even when they never change).
+  std::vector<std::string> phi_tunable;
+};
+
+/// Everything an experiment needs about its task, built by TaskPlugin::make.
+struct TaskSetup {
+  std::shared_ptr<const rollout::Task> task;
+  std::unique_ptr<rollout::System> real;     ///< the "real" system
+  std::unique_ptr<policy::Policy> policy;    ///< the policy family (parameters set by the algorithm)
+  std::shared_ptr<const model::MeanFunction> prior;  ///< the simulator prior M(x, u; phi)
+  model::PriorParameters prior_parameters;   ///< starting phi, tunable set and bounds
+  std::vector<double> phi_actual;  ///< the real system's phi in the prior's parametrisation (reports)
+  std::string prior_label;         ///< short name of the starting prior (run names, summaries)
+  /// Column names of the trajectory files: state (dim E) and action (dim U).
+  std::vector<std::string> state_names, action_names;
+  /// Names of the task's per-episode metrics, appended to episodes.csv and summary.json (may be
+  /// empty). metrics(record) returns one value per name; it is called once per episode, in order,
+  /// from the thread that runs the algorithm.
+  std::vector<std::string> metric_names;
+  std::function<std::vector<double>(const algo::EpisodeRecord&)> metrics;
+  /// Extra columns of the trajectory files computed from each state (e.g. the hexapod's foot
+  /// heights for the gait diagram); names and a function of the state (dim E) returning one value
+  /// per name. May be empty.
+  std::vector<std::string> state_extra_names;
+  std::function<std::vector<double>(const VectorXd&)> state_extras;
+  /// The problem the algorithm runs on (pointers into this setup).
+  algo::Problem problem() const;
+};
+
+/// A task: its configuration section and the factory of its TaskSetup.
+class TaskPlugin {
+ public:
+  virtual ~TaskPlugin() = default;
+  /// The value of the `task` key, e.g. "pendubot"; [a-z0-9_]+.
+  virtual std::string name() const = 0;
+  /// One line for help texts and docs.
+  virtual std::string description() const = 0;
+  /// The task's own keys (they exist only in experiments on this task). Each key must be new: no
+  /// base or algorithm key, no other task's key.
+  virtual std::vector<KeySpec> keys() const = 0;
+  /// Values of base keys whose default depends on the task (those with an empty default in
+  /// base_keys(), e.g. policy.bound, optimizer.max_evaluations); missing ones keep the base rule.
+  virtual std::map<std::string, std::string> shared_defaults() const { return {}; }
+  /// Builds the task from validated settings. Throws ConfigError naming the key when the settings
+  /// describe something impossible.
+  virtual TaskSetup make(const Settings& settings) const = 0;
+  /// The starting prior's short name (run names, summaries), without building anything.
+  virtual std::string prior_label(const Settings& settings) const = 0;
+  /// How reports show a run of these settings, without building anything.
+  virtual ReportInfo report_info(const Settings& settings) const = 0;
+};
+
+/// An algorithm: its configuration section and the factory of an algo::Algorithm.
+class AlgorithmPlugin {
+ public:
+  virtual ~AlgorithmPlugin() = default;
+  /// The value of the `algorithm` key, e.g. "black_drops".
+  virtual std::string name() const = 0;
+  /// One line for help texts and docs.
+  virtual std::string description() const = 0;
+  /// The algorithm's own keys (e.g. "direct.start"); the shared policy-search keys are base keys.
+  virtual std::vector<KeySpec> keys() const { return {}; }
+  /// The run's variant label (report groups, run names), e.g. the model type for Black-DROPS.
+  virtual std::string variant(const Settings& settings) const { (void)settings; return name(); }
+  /// Whether runs use the task's simulator prior (run names then carry the prior's label).
+  virtual bool uses_prior(const Settings& settings) const = 0;
+  /// Builds the algorithm for validated settings and the built task. Throws ConfigError naming
+  /// the key on invalid combinations.
+  virtual std::unique_ptr<algo::Algorithm> make(const Settings& settings,
+                                                const TaskSetup& setup) const = 0;
+};
+
+/// The tasks and algorithms an application offers. Not thread-safe while registering; const
+/// members are thread-safe.
+class Registry {
+ public:
+  Registry() = default;
+  Registry(const Registry&) = delete;
+  Registry& operator=(const Registry&) = delete;
+  /// Adds a task; the first one added is the default task. Throws InvalidArgument when its name is
+  /// taken or one of its keys exists already.
+  void add_task(std::unique_ptr<TaskPlugin> task);
+  /// Records a task that this build cannot offer, with the reason (e.g. "built without DART: run
+  /// scripts/install-deps, then scripts/build"), so that `task=NAME` gets that reason.
+  void add_unavailable_task(const std::string& name, const std::string& reason);
+  /// Adds an algorithm; the first one added is the default. Throws InvalidArgument when its name
+  /// is taken or one of its keys exists already.
+  void add_algorithm(std::unique_ptr<AlgorithmPlugin> algorithm);
+  /// The task called `name`. Throws ConfigError ("config key 'task' = ...") listing the available
+  /// tasks, or giving the reason recorded by add_unavailable_task.
+  const TaskPlugin& task(const std::string& name) const;
+  /// The algorithm called `name`. Throws ConfigError listing the available ones.
+  const AlgorithmPlugin& algorithm(const std::string& name) const;
+  bool has_task(const std::string& name) const;
+  std::vector<std::string> task_names() const;       ///< in registration order
+  std::vector<std::string> algorithm_names() const;  ///< in registration order
+  /// The names given to add_unavailable_task (and not registered since).
+  std::vector<std::string> unavailable_task_names() const;
+  /// The first registered task / algorithm. Throws ConfigError when none is registered.
+  std::string default_task() const;
+  std::string default_algorithm() const;
+  /// The registered task whose keys include `key` (nullptr if none).
+  const TaskPlugin* task_of_key(const std::string& key) const;
+
+ private:
+  std::vector<std::unique_ptr<TaskPlugin>> tasks_;
+  std::vector<std::vector<KeySpec>> task_keys_;
+  std::map<std::string, std::string> unavailable_;
+  std::vector<std::unique_ptr<AlgorithmPlugin>> algorithms_;
+};
+
+/// Registers the algorithms of drops::core: "black_drops" (Black-DROPS and its variants, by
+/// model.type; the default) and "direct" (the direct search on the real system).
+void register_builtin_algorithms(Registry& registry);
+
+}  // namespace drops::experiment

@@ -1,0 +1,49 @@
+#pragma once
+/// \file The GP dynamics model of Black-DROPS and its prior variants (paper §IV-A, eq. 3-4): E
+/// independent GPs on the state differences dx, each with the simulator prior M(x, u; phi) as
+/// mean (gp_prior, gp_mi) or a zero mean (gp); gp_mi identifies phi first (Algorithm 2, gp_mi.hpp).
+
+#include <memory>
+#include <vector>
+
+#include "drops/gp/gp.hpp"
+#include "drops/model/dynamics_model.hpp"
+
+namespace drops::model {
+
+/// The model of the types gp, gp_prior and gp_mi. learn() is not thread-safe; predict() and
+/// predict_batch() are const and thread-safe after it.
+class GpDynamicsModel final : public DynamicsModel {
+ public:
+  /// task: gives the GP input [task.observe(x), u] (dim O + U). prior and parameters: required
+  /// for gp_prior and gp_mi (parameters.values is the starting phi), ignored (pass null and {})
+  /// for gp. Throws InvalidArgument when options are invalid, the prior is missing or does not
+  /// fit the task, or the parameters are invalid.
+  GpDynamicsModel(const ModelOptions& options, std::shared_ptr<const rollout::Task> task,
+                  std::shared_ptr<const MeanFunction> prior, const PriorParameters& parameters);
+
+  ModelType type() const override { return options_.type; }
+  VectorXd phi() const override { return phi_; }
+  ModelState state() const override;
+  void restore(const ModelState& state) override;
+  /// gp_mi: phi by identify_phi (warm-started from the previous phi and kernels), then every
+  /// output GP refit on all data at phi with options.rprop; the others: the refit only.
+  ModelSummary learn(const std::vector<Transition>& data,
+                     const ModelProgress& progress = nullptr) override;
+  void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override;
+  void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
+                     MatrixXd& var) const override;
+  /// The E output GPs (after learn(): fitted to the residuals at phi()).
+  const std::vector<gp::Gp>& output_gps() const { return gps_; }
+
+ private:
+  ModelOptions options_;
+  std::shared_ptr<const rollout::Task> task_;
+  std::shared_ptr<const MeanFunction> prior_;
+  PriorParameters params_;
+  int E_ = 0, U_ = 0, O_ = 0;
+  VectorXd phi_;
+  std::vector<gp::Gp> gps_;
+};
+
+}  // namespace drops::model

@@ -1,0 +1,105 @@
+#pragma once
+/// \file GP-MI, paper Algorithm 2 (§IV-B): the simulator prior's parameters phi chosen to
+/// maximise the sum of the likelihoods of the E output GPs fitted to the residuals
+/// dx - M(x, u; phi), with the kernels refit at phi*. The nested search is the paper's
+/// (Subplex over phi outside, Rprop over each output's kernel inside); the alternating search
+/// ascends the same score block by block, much faster. settings.md §4 gives the reference's values.
+
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "drops/core/types.hpp"
+#include "drops/gp/gp.hpp"
+#include "drops/model/dataset.hpp"
+#include "drops/model/mean_function.hpp"
+
+namespace drops::model {
+
+/// How GP-MI searches phi. Both maximise the same score
+///   S(phi) = max_{h_1..h_E} score(log p(dx_1 - M_1(phi) | X, h_1), ..., log p(dx_E - M_E(phi) | X, h_E)).
+enum class GpMiSearch {
+  /// Paper's nested loops: every Subplex evaluation of phi refits all E kernels with Rprop
+  /// (warm-started from the best kernels so far, inner_rprop_iterations iterations).
+  kNested,
+  /// Block-coordinate ascent on the same score: Subplex over phi with the kernels fixed (each
+  /// evaluation costs N simulator calls and E O(N^2) solves), then refit the kernels at the new
+  /// phi, for up to `rounds` rounds or until phi stops moving. Much cheaper; same fixed points.
+  /// When every tunable parameter is discrete, GP-MI uses kNested instead: with the kernels fitted
+  /// to the starting candidate's residuals, the others are scored against them and the search
+  /// stays at its start (measured on the hexapod's 7 priors).
+  kAlternating,
+};
+
+/// How GP-MI combines the E output GPs' log marginal likelihoods l_i into its score.
+enum class GpMiScore {
+  /// log sum_i exp(l_i): the paper's "sum of the likelihoods" (settings.md §4). Dominated by the
+  /// single best-fitting output, so with many outputs that every prior predicts alike (the
+  /// hexapod's 36 joint outputs) it can ignore the outputs that tell the priors apart.
+  kSumOfLikelihoods,
+  /// sum_i l_i: the joint log likelihood of the independent output GPs (the product of the
+  /// likelihoods), which every output informs.
+  kSumOfLogLikelihoods,
+};
+
+/// Options of GP-MI (settings.md §4).
+struct GpMiOptions {
+  GpMiSearch search = GpMiSearch::kAlternating;
+  GpMiScore score = GpMiScore::kSumOfLikelihoods;  ///< how the per-output likelihoods combine
+  int max_evaluations = 1000;   ///< Subplex evaluations per search (per discrete combination), >= 1
+  double xtol_rel = 1e-4;       ///< Subplex relative tolerance on phi, >= 0
+  double ftol_rel = 1e-4;       ///< Subplex relative tolerance on the score, >= 0
+  int rounds = 5;               ///< alternating search: maximum rounds, >= 1
+  int inner_rprop_iterations = 50;  ///< Rprop iterations of the kernel refits inside the search, >= 1
+  /// Use at most this many transitions (evenly spaced) inside the phi search; 0 = all. The final
+  /// kernel fit always uses all data. >= 0.
+  int max_points = 0;
+  /// Returns true when every field is in range; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
+};
+
+/// Progress during learning: phase ("gp-mi", "kernels", "mi"), evaluations so far, best score.
+using ModelProgress = std::function<void(const std::string& phase, int evaluations, double best)>;
+
+/// What identify_phi did.
+struct GpMiSummary {
+  VectorXd phi;  ///< phi* (full, dim P); the start when no candidate scored a finite value
+  /// S(phi*) as found by the search (-inf when no candidate was valid).
+  double score = -std::numeric_limits<double>::infinity();
+  int evaluations = 0;             ///< evaluations of S
+  int rounds = 0;                  ///< alternating search: rounds performed (0 for nested)
+  long rprop_iterations = 0;       ///< Rprop iterations of every kernel fit inside the search
+  long nonfinite_prior_outputs = 0;  ///< simulator outputs that were NaN/inf (phi rejected there)
+};
+
+/// log sum_i exp(v_i), computed stably (max shift). Returns -inf for an empty or all -inf vector.
+/// Thread-safe.
+double log_sum_exp(const VectorXd& v);
+
+/// GP-MI's score of per-output log likelihoods ll (dim E) under `score` (see GpMiScore); -inf
+/// when any entry is -inf under kSumOfLogLikelihoods. Thread-safe.
+double gp_mi_score(const VectorXd& ll, GpMiScore score);
+
+/// Fits output GP i on (in, targets.col(i)) for every i, in parallel over outputs: compute(), then
+/// Rprop from the GP's current hyper-parameters (warm start). gps: E GPs on in.cols() inputs;
+/// in: N x D; targets: N x E. Returns the per-output log marginal likelihoods (dim E) and adds
+/// the Rprop iterations to *iterations. Throws NumericalError from a failing factorisation.
+VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
+                        const gp::RpropOptions& rprop, long* iterations);
+
+/// Paper Algorithm 2: phi* = argmax_phi S(phi) over parameters.tunable within their bounds
+/// (discrete choices exhaustively), starting from parameters.values, by options.search.
+/// data: the transitions (x, u, dx and the GP inputs), subsampled to options.max_points inside the
+/// search. gps: the E output GPs; their hyper-parameters are the warm start on entry, and on
+/// return the kernels fitted at phi* inside the search (the caller refits on all data). rprop:
+/// the options of the kernel fits, whose iteration count is replaced by
+/// options.inner_rprop_iterations. prior.check_phi rejects invalid candidates (score -inf).
+/// Throws InvalidArgument when parameters do not fit the prior or the data. Not thread-safe (it
+/// runs parallel loops and mutates gps).
+GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
+                         const Dataset& data, const GpMiOptions& options,
+                         const gp::RpropOptions& rprop, std::vector<gp::Gp>& gps,
+                         const ModelProgress& progress = nullptr);
+
+}  // namespace drops::model

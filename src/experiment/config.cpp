@@ -1,0 +1,625 @@
+// The configuration schema (base keys + algorithms' + the task's), YAML loading and validation.
+#include "drops/experiment/config.hpp"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "drops/algo/black_drops.hpp"
+#include "drops/core/errors.hpp"
+#include "drops/experiment/registry.hpp"
+
+namespace drops::experiment {
+namespace {
+
+/// Shortest text that reads back as v ("0.01", "1e-12", "300").
+std::string num(double v) { return fmt::format("{}", v); }
+std::string boolean(bool v) { return v ? "true" : "false"; }
+
+std::string restart_name(opt::CmaesRestartStart r) {
+  return r == opt::CmaesRestartStart::kRandom ? "random"
+         : r == opt::CmaesRestartStart::kStart ? "start"
+                                                : "mixed";
+}
+
+/// Values of the base keys whose schema default is empty because some task changes it: what
+/// they are when the task says nothing (the Options structs' defaults).
+std::map<std::string, std::string> fallback_defaults() {
+  const algo::BlackDropsOptions d;
+  return {{"policy.bound", num(d.theta_bound)},
+          {"optimizer.max_evaluations", num(static_cast<double>(d.cmaes.max_evaluations))},
+          {"optimizer.reevaluation_rollouts", num(d.reevaluation_rollouts)},
+          {"model.rprop.max_length_scale_ratio", num(d.model.rprop.max_length_scale_ratio)},
+          {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"}};
+}
+
+std::vector<KeySpec> build_base_keys() {
+  const algo::BlackDropsOptions d;  // the single source of the defaults
+  const auto& m = d.model;
+  const auto& c = d.cmaes;
+  std::vector<KeySpec> s;
+  auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
+  const double big = 1e9;
+  add({"task", "string", "", 0, 0, {}, "-",
+       "the learning problem, one of the registered tasks (empty = the first registered: the "
+       "pendubot in the drops command line); `drops config --markdown` lists each task's keys"});
+  add({"algorithm", "string", "", 0, 0, {}, "-",
+       "the learning algorithm: black_drops (Algorithm 1 with the model of model.type; the "
+       "default) or direct (CMA-ES on the real system itself, no model); empty = black_drops"});
+  add({"seed", "int", num(static_cast<double>(d.seed)), 0, 4294967295.0, {}, "-",
+       "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
+  add({"episodes", "int", num(d.episodes), 1, 1000, {}, "-",
+       "real episodes in total, including the first one"});
+  add({"threads", "int", "0", 0, 1024, {}, "-", "worker threads (0 = all hardware threads)"});
+  add({"output", "string", "runs", 0, 0, {}, "-", "parent directory of run directories"});
+  add({"name", "string", "", 0, 0, {}, "-",
+       "run directory name (empty = <task>-<variant>-<prior>-seed<seed>-<date>-<time>)"});
+  add({"model.type", "enum", model::to_string(m.type), 0, 0, {"gp", "gp_prior", "gp_mi", "mi"}, "-",
+       "gp: Black-DROPS; gp_prior: with priors; gp_mi: with GP-MI; mi: with MI (no GP)"});
+  add({"model.rprop.iterations", "int", num(m.rprop.max_iterations), 1, 100000, {}, "-",
+       "Rprop iterations of the final kernel fit per output GP"});
+  add({"model.rprop.tolerance", "double", num(m.rprop.tolerance), 0, big, {}, "nats",
+       "stop a kernel fit early when the log-likelihood gains less than this over `patience` "
+       "iterations (0 = always run every iteration)"});
+  add({"model.rprop.patience", "int", num(m.rprop.patience), 1, 100000, {}, "-",
+       "window of the tolerance test"});
+  add({"model.rprop.penalty", "enum", "auto", 0, 0, {"auto", "on", "off"}, "-",
+       "PILCO's soft walls on extreme length scales and signal-to-noise ratios in the kernel fits "
+       "(auto = the task's choice: on for the hexapod, whose GPs on 40-400 points in 66 input "
+       "dimensions otherwise interpolate noise, off for the pendubot; the reference used them for "
+       "its no-prior variant: model.type gp with penalty on)"});
+  add({"model.rprop.max_length_scale_ratio", "double", "", 1.001, 1e6, {}, "-",
+       "soft walls: length scale l_d within [s_d / ratio, ratio s_d], s_d the spread of input d "
+       "(empty = the task's choice: " + num(m.rprop.max_length_scale_ratio) +
+           ", PILCO's value, unless the task says otherwise; the hexapod: 10)"});
+  add({"model.rprop.max_snr", "double", num(m.rprop.max_snr), 1.001, 1e9, {}, "-",
+       "soft walls: signal-to-noise ratio sigma_f / sigma_n at most this (PILCO: 500)"});
+  add({"model.gp_mi.search", "enum",
+       m.gp_mi.search == model::GpMiSearch::kNested ? "nested" : "alternating", 0, 0,
+       {"alternating", "nested"}, "-",
+       "nested: paper's Algorithm 2 (Rprop inside every Subplex evaluation); alternating: "
+       "block-coordinate ascent on the same score (much faster)"});
+  add({"model.gp_mi.score", "enum",
+       m.gp_mi.score == model::GpMiScore::kSumOfLogLikelihoods ? "sum_log_likelihoods"
+                                                               : "sum_likelihoods",
+       0, 0, {"sum_likelihoods", "sum_log_likelihoods"}, "-",
+       "GP-MI's score: log sum_i exp(loglik_i), the paper's sum of the likelihoods, or "
+       "sum_i loglik_i, the joint likelihood of the output GPs (every output counts)"});
+  add({"model.gp_mi.max_evaluations", "int", num(m.gp_mi.max_evaluations), 1, 1000000, {}, "-",
+       "Subplex evaluations per phi search"});
+  add({"model.gp_mi.tolerance", "double", num(m.gp_mi.xtol_rel), 0, 1, {}, "-",
+       "Subplex relative tolerance on phi and on the score"});
+  add({"model.gp_mi.rounds", "int", num(m.gp_mi.rounds), 1, 100, {}, "-",
+       "alternating search: maximum rounds"});
+  add({"model.gp_mi.inner_rprop_iterations", "int", num(m.gp_mi.inner_rprop_iterations), 1,
+       100000, {}, "-", "Rprop iterations of kernel refits inside the phi search"});
+  add({"model.gp_mi.max_points", "int", num(m.gp_mi.max_points), 0, 1000000, {}, "-",
+       "transitions used inside the phi search, evenly spaced (0 = all); the final fit uses all"});
+  add({"model.mi.max_evaluations", "int", num(m.mi.max_evaluations), 1, 1000000, {}, "-",
+       "Subplex evaluations of MI"});
+  add({"model.mi.tolerance", "double", num(m.mi.xtol_rel), 0, 1, {}, "-",
+       "Subplex relative tolerance of MI"});
+  add({"policy.bound", "double", "", 1e-3, 1000, {}, "-",
+       "policy parameters are searched in [-bound, bound] (empty = the task's choice: " +
+           num(d.theta_bound) + " unless the task says otherwise; the hexapod's gait: 0.5)"});
+  add({"optimizer.max_evaluations", "int", "", 10, 100000000, {}, "-",
+       "CMA-ES policy evaluations per optimization, all restarts (empty = the task's choice: " +
+           num(static_cast<double>(c.max_evaluations)) +
+           " unless the task says otherwise; the hexapod: 2000); for algorithm=direct, the number "
+           "of real episodes"});
+  add({"optimizer.run_evaluations", "int", "", 0, 100000000, {}, "-",
+       "CMA-ES evaluations of one run before it restarts (empty = a quarter of "
+       "optimizer.max_evaluations; 0 = no per-run budget): with a noisy objective the tolerances "
+       "rarely end a run, so this is what makes restarts happen"});
+  add({"optimizer.restarts", "int", num(c.max_restarts), 0, 100, {}, "-",
+       "large-population (IPOP) restarts after the first run; BIPOP's small runs come in between"});
+  add({"optimizer.restart_from", "enum", restart_name(c.restart_start), 0, 0,
+       {"mixed", "random", "start"}, "-",
+       "where restarts begin: mixed = BIPOP's small (local) runs from the start policy and its large "
+       "runs from random points; random = every restart from a random point (Hansen 2009); start = "
+       "every restart from the start policy"});
+  add({"optimizer.tol_fun", "double", num(c.tol_fun), 0, 1e6, {}, "return",
+       "a run stops when its best returns of the last 10 + 30n/lambda generations (TolHistFun), or "
+       "those and all of the last generation's (TolFun), lie within this range"});
+  add({"optimizer.stagnation", "bool", boolean(c.stagnation), 0, 0, {}, "-",
+       "a run stops when its best and median returns stopped improving (Hansen 2009's Stagnation)"});
+  add({"optimizer.lambda", "int", num(c.lambda), 0, 100000, {}, "-",
+       "population size of the first run (0 = 4 + floor(3 ln n), 17 for 81 parameters)"});
+  add({"optimizer.sigma0", "double", num(c.sigma0), 0, 1000, {}, "-",
+       "initial step size (0 = policy.bound)"});
+  add({"optimizer.elitism", "bool", boolean(c.elitism), 0, 0, {}, "-",
+       "re-inject the best-ever candidate"});
+  add({"optimizer.active", "bool", boolean(c.active), 0, 0, {}, "-",
+       "active covariance update (aCMA)"});
+  add({"optimizer.bipop", "bool", boolean(c.bipop), 0, 0, {}, "-",
+       "BIPOP restarts (false = IPOP)"});
+  add({"optimizer.uncertainty_handling", "bool", boolean(c.uncertainty_handling), 0, 0, {}, "-",
+       "Hansen et al. 2009 uncertainty handling for the noisy rollout objective"});
+  add({"optimizer.keep_start", "bool", boolean(d.keep_start_point), 0, 0, {}, "-",
+       "the best policy so far is the start and a candidate: each search starts from the policy of "
+       "the best real episode, evaluates it on the current model like any candidate and runs it again "
+       "unless a candidate beats it (as the reference's CMA-ES wrapper); false = the start only "
+       "centres the first CMA-ES run"});
+  add({"optimizer.selection", "enum",
+       d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
+       {"reevaluate", "best_seen"}, "-",
+       "which evaluated policy is run: reevaluate = the best mean return when the start, the best "
+       "evaluated policies and each run's final mean are re-evaluated with many rollouts (robust to "
+       "lucky rollouts); best_seen = the best single evaluation (the paper's reference)"});
+  add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
+       "selection reevaluate: rollouts per re-evaluated policy, on common random numbers (empty = "
+       "the task's choice: " + num(d.reevaluation_rollouts) +
+           " unless the task says otherwise; the hexapod, whose rollouts cost about 50 times more: 20)"});
+  add({"optimizer.reevaluation_candidates", "int", num(d.reevaluation_candidates), 1, 10000, {},
+       "-",
+       "selection reevaluate: best distinct evaluated policies re-evaluated (besides the start and "
+       "the runs' final means)"});
+  add({"optimizer.prior_optimizations", "int", num(d.prior_optimizations), 1, 100, {}, "-",
+       "with a prior: successive optimizations on the prior alone for episode 1"});
+  add({"rollouts.count", "int", num(d.rollouts.rollouts), 1, 10000, {}, "-",
+       "Monte-Carlo rollouts averaged per policy evaluation"});
+  add({"rollouts.clip", "double", num(d.rollouts.clip), 0, 100, {}, "sigma",
+       "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
+  add({"rollouts.batch", "int", num(d.rollouts.batch), 1, 1024, {}, "-",
+       "rollouts advanced together through batched GP predictions"});
+  add({"rollouts.predicted", "int", num(d.predicted_rollouts), 1, 100000, {}, "-",
+       "rollouts used to report each episode's predicted return"});
+  return s;
+}
+
+[[noreturn]] void fail(const std::string& key, const std::string& value, const std::string& what) {
+  throw ConfigError("config key '" + key + "' = '" + value + "': " + what);
+}
+
+std::string node_text(const YAML::Node& n) {
+  YAML::Emitter e;
+  e.SetSeqFormat(YAML::Flow);
+  e << n;
+  return e.c_str();
+}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+double parse_double(const std::string& key, const YAML::Node& n) {
+  const std::string text = node_text(n);
+  if (!n.IsScalar()) fail(key, text, "expected a number");
+  try {
+    std::size_t pos = 0;
+    const double v = std::stod(n.Scalar(), &pos);
+    if (pos != n.Scalar().size()) throw std::invalid_argument("trailing");
+    if (!std::isfinite(v)) throw std::invalid_argument("non-finite");
+    return v;
+  } catch (const std::exception&) {
+    fail(key, text, "expected a finite number");
+  }
+}
+
+void check_range(const KeySpec& s, double v, const std::string& text) {
+  if (s.min < s.max && (v < s.min || v > s.max)) {
+    std::ostringstream o;
+    o << "out of range: allowed [" << s.min << ", " << s.max << "]"
+      << (s.unit != "-" ? " " + s.unit : "");
+    fail(s.key, text, o.str());
+  }
+}
+
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& a : v) s += (s.empty() ? "" : ", ") + a;
+  return s;
+}
+
+/// Validates one value against its spec; returns the canonical text stored in Settings.
+std::string validate(const KeySpec& s, const YAML::Node& n) {
+  const std::string text = node_text(n);
+  if (s.type == "string") {
+    if (n.IsNull()) return "";
+    if (!n.IsScalar()) fail(s.key, text, "expected a string");
+    return n.Scalar();
+  }
+  if (s.type == "enum") {
+    if (!n.IsScalar() ||
+        std::find(s.allowed.begin(), s.allowed.end(), n.Scalar()) == s.allowed.end())
+      fail(s.key, text, "allowed values: " + joined(s.allowed));
+    return n.Scalar();
+  }
+  if (s.type == "bool") {
+    if (n.IsScalar()) {
+      const std::string v = n.Scalar();
+      if (v == "true" || v == "yes" || v == "on" || v == "1") return "true";
+      if (v == "false" || v == "no" || v == "off" || v == "0") return "false";
+    }
+    fail(s.key, text, "expected true or false");
+  }
+  if (s.type == "int") {
+    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
+    const double v = parse_double(s.key, n);
+    if (v != std::floor(v)) fail(s.key, text, "expected an integer");
+    check_range(s, v, text);
+    return std::to_string(static_cast<long long>(v));
+  }
+  if (s.type == "double") {
+    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
+    const double v = parse_double(s.key, n);
+    check_range(s, v, text);
+    return n.Scalar();
+  }
+  if (s.type == "interval") {
+    if (!n.IsSequence() || n.size() != 2) fail(s.key, text, "expected [lower, upper]");
+    const double lo = parse_double(s.key, n[0]), hi = parse_double(s.key, n[1]);
+    check_range(s, lo, text);
+    check_range(s, hi, text);
+    if (!(lo < hi)) fail(s.key, text, "expected lower < upper");
+    return text;
+  }
+  if (s.type == "names") {
+    if (!n.IsSequence()) fail(s.key, text, "expected a list such as [a, b]");
+    std::set<std::string> seen;
+    for (const auto& e : n) {
+      if (!e.IsScalar() ||
+          std::find(s.allowed.begin(), s.allowed.end(), e.Scalar()) == s.allowed.end())
+        fail(s.key, text, "allowed names: " + joined(s.allowed));
+      if (!seen.insert(e.Scalar()).second)
+        fail(s.key, text, "'" + e.Scalar() + "' is listed twice");
+    }
+    return text;
+  }
+  fail(s.key, text, "internal: unknown type " + s.type);
+}
+
+YAML::Node parse_yaml(const std::string& text, const std::string& where) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(where + ": invalid YAML: " + e.what());
+  }
+}
+
+/// The document's keys, dotted, with their YAML nodes. A map under a key that no schema knows is
+/// descended into; `is_key(k)` says whether k is a key (then its value is kept whole, even a map,
+/// so that validation reports the type error).
+void flatten(const YAML::Node& node, const std::string& prefix,
+             const std::function<bool(const std::string&)>& is_key,
+             std::vector<std::pair<std::string, YAML::Node>>& out) {
+  if (node.IsMap()) {
+    for (const auto& kv : node) {
+      std::string k;
+      try {
+        k = kv.first.as<std::string>();
+      } catch (const YAML::Exception&) {
+        throw ConfigError("config: a key is not a plain name: '" + node_text(kv.first) + "'");
+      }
+      const std::string key = prefix.empty() ? k : prefix + "." + k;
+      if (is_key(key) || !kv.second.IsMap())
+        out.emplace_back(key, kv.second);
+      else
+        flatten(kv.second, key, is_key, out);
+    }
+  } else if (!node.IsNull()) {
+    throw ConfigError("config: the document must be a mapping of keys, got '" + node_text(node) +
+                      "'");
+  }
+}
+
+std::string read_config_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError("cannot read config file '" + path + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Every key of the registry: base, algorithms', every task's (for the keys of other tasks).
+bool known_anywhere(const Registry& registry, const std::string& key) {
+  for (const auto& s : base_keys())
+    if (s.key == key) return true;
+  for (const auto& a : registry.algorithm_names())
+    for (const auto& s : registry.algorithm(a).keys())
+      if (s.key == key) return true;
+  return registry.task_of_key(key) != nullptr;
+}
+
+}  // namespace
+
+const std::vector<KeySpec>& base_keys() {
+  static const std::vector<KeySpec> s = build_base_keys();
+  return s;
+}
+
+std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
+  std::vector<KeySpec> s = base_keys();
+  for (const auto& a : registry.algorithm_names())
+    for (auto& k : registry.algorithm(a).keys()) s.push_back(std::move(k));
+  for (auto& k : registry.task(task).keys()) s.push_back(std::move(k));
+  return s;
+}
+
+Settings load_settings(const Registry& registry, const std::string& yaml_text,
+                       const std::vector<std::string>& overrides, ForeignKeys foreign) {
+  // 1. The document and the overrides as (dotted key, YAML node), in order.
+  std::vector<std::pair<std::string, YAML::Node>> entries;
+  auto is_key = [&](const std::string& k) { return known_anywhere(registry, k); };
+  flatten(parse_yaml(yaml_text, "config"), "", is_key, entries);
+  for (const auto& o : overrides) {
+    const auto eq = o.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError("override '" + o + "': expected key=value, e.g. model.type=gp_prior");
+    const std::string key = o.substr(0, eq), value = o.substr(eq + 1);
+    YAML::Node n =
+        value.empty() ? YAML::Node(std::string()) : parse_yaml(value, "override " + key);
+    if (n.IsScalar()) n = YAML::Node(value);  // strings and enums verbatim
+    entries.emplace_back(key, n);
+  }
+  // 2. The task (and algorithm) decide the schema.
+  std::string task = registry.default_task();
+  for (const auto& [k, n] : entries)
+    if (k == "task") {
+      if (!n.IsScalar()) fail("task", node_text(n), "expected a task name");
+      if (!n.Scalar().empty()) task = n.Scalar();
+    }
+  registry.task(task);  // ConfigError naming the available tasks
+  const std::vector<KeySpec> keys = schema(registry, task);
+  auto spec = [&](const std::string& k) -> const KeySpec* {
+    for (const auto& s : keys)
+      if (s.key == k) return &s;
+    return nullptr;
+  };
+  std::vector<std::string> names;
+  for (const auto& s : keys) names.push_back(s.key);
+  // 3. Defaults, then each entry validated.
+  Settings out;
+  for (const auto& s : keys) out[s.key] = s.default_value;
+  out["task"] = task;
+  for (const auto& [k, n] : entries) {
+    const KeySpec* s = spec(k);
+    if (!s) {
+      const std::string head = k.substr(0, k.find('.'));
+      const auto unavailable = registry.unavailable_task_names();
+      if (foreign == ForeignKeys::kDrop &&
+          std::find(unavailable.begin(), unavailable.end(), head) != unavailable.end())
+        continue;  // the section of a task this build does not offer
+      if (const TaskPlugin* owner = registry.task_of_key(k)) {
+        if (foreign == ForeignKeys::kDrop) continue;
+        fail(k, node_text(n), "this key belongs to task '" + owner->name() +
+                                  "'; this experiment's task is '" + task + "'");
+      }
+      fail(k, node_text(n), "unknown key" + did_you_mean(k, names) +
+                                "; run 'drops config --markdown' for every key");
+    }
+    if (k == "task") continue;
+    out[k] = validate(*s, n);
+  }
+  if (out["algorithm"].empty()) out["algorithm"] = registry.default_algorithm();
+  registry.algorithm(out["algorithm"]);  // ConfigError naming the available algorithms
+  resolve_derived_defaults(registry, out);
+  return out;
+}
+
+Settings load_settings_file(const Registry& registry, const std::string& path,
+                            const std::vector<std::string>& overrides) {
+  const std::string text = read_config_file(path);
+  try {
+    return load_settings(registry, text, overrides);
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+}
+
+Settings load_run_settings(const Registry& registry, const std::string& yaml_text,
+                           const std::vector<std::string>& overrides) {
+  // Keys added after a run may have been written, with the value that reproduces the old runs.
+  static const std::pair<const char*, const char*> kLegacy[] = {
+      {"optimizer.selection", "best_seen"},
+      {"optimizer.run_evaluations", "0"},
+      {"optimizer.stagnation", "false"},
+      {"optimizer.tol_fun", "1e-12"},
+      {"optimizer.restart_from", "random"},
+  };
+  std::vector<std::pair<std::string, YAML::Node>> present;
+  flatten(parse_yaml(yaml_text, "config"), "",
+          [&](const std::string& k) { return known_anywhere(registry, k); }, present);
+  std::vector<std::string> all;
+  for (const auto& [key, value] : kLegacy) {
+    bool found = false;
+    for (const auto& p : present) found = found || p.first == key;
+    if (!found) all.push_back(std::string(key) + "=" + value);
+  }
+  all.insert(all.end(), overrides.begin(), overrides.end());
+  return load_settings(registry, yaml_text, all, ForeignKeys::kDrop);
+}
+
+Settings load_run_settings_file(const Registry& registry, const std::string& path,
+                                const std::vector<std::string>& overrides) {
+  const std::string text = read_config_file(path);
+  try {
+    return load_run_settings(registry, text, overrides);
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+}
+
+bool is_run_config(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  return std::filesystem::exists(dir / "episodes.csv", ec) ||
+         std::filesystem::exists(dir / "summary.json", ec);
+}
+
+void resolve_derived_defaults(const Registry& registry, Settings& settings) {
+  const auto task = settings.find("task");
+  if (task == settings.end() || !registry.has_task(task->second)) return;
+  const auto shared = registry.task(task->second).shared_defaults();
+  for (const auto& [key, fallback] : fallback_defaults()) {
+    const auto it = settings.find(key);
+    if (it == settings.end()) continue;
+    const bool derived = it->second.empty() || (key == "model.rprop.penalty" && it->second == "auto");
+    if (!derived) continue;
+    const auto t = shared.find(key);
+    it->second = t != shared.end() ? t->second : fallback;
+  }
+  // A run's budget follows the total: a quarter of it (at least 4 runs per search).
+  const auto run = settings.find("optimizer.run_evaluations");
+  const auto total = settings.find("optimizer.max_evaluations");
+  if (run != settings.end() && run->second.empty() && total != settings.end()) {
+    try {
+      run->second = std::to_string(std::stoll(total->second) / 4);
+    } catch (const std::exception&) {
+      // a malformed total is reported by the validation of optimizer.max_evaluations
+    }
+  }
+}
+
+namespace {
+/// Nested view of the dotted keys, in schema order.
+struct Tree {
+  std::vector<std::pair<std::string, Tree>> children;
+  YAML::Node leaf;
+  Tree& child(const std::string& name) {
+    for (auto& c : children)
+      if (c.first == name) return c.second;
+    children.emplace_back(name, Tree{});
+    return children.back().second;
+  }
+};
+
+void emit(YAML::Emitter& e, const Tree& t) {
+  e << YAML::BeginMap;
+  for (const auto& [name, sub] : t.children) {
+    e << YAML::Key << name << YAML::Value;
+    if (sub.children.empty())
+      e << sub.leaf;
+    else
+      emit(e, sub);
+  }
+  e << YAML::EndMap;
+}
+
+YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
+  const std::string type = spec ? spec->type : "string";
+  if (type == "interval" || type == "names") return YAML::Load(v);
+  if (type == "string" || type == "enum") return YAML::Node(v);
+  if (v.empty()) return YAML::Node(YAML::NodeType::Null);
+  return YAML::Load(v);
+}
+}  // namespace
+
+std::string to_yaml(const Registry& registry, const Settings& settings) {
+  std::vector<KeySpec> keys;
+  const auto task = settings.find("task");
+  if (task != settings.end() && registry.has_task(task->second))
+    keys = schema(registry, task->second);
+  else
+    keys = base_keys();
+  Tree root;
+  std::set<std::string> done;
+  auto put = [&](const std::string& key, const KeySpec* spec) {
+    const auto it = settings.find(key);
+    if (it == settings.end()) return;
+    Tree* node = &root;
+    std::stringstream ss(key);
+    std::string part;
+    while (std::getline(ss, part, '.')) node = &node->child(part);
+    node->leaf = leaf_node(spec, it->second);
+    done.insert(key);
+  };
+  for (const auto& s : keys) put(s.key, &s);
+  for (const auto& [k, v] : settings)
+    if (!done.count(k)) put(k, nullptr);
+  YAML::Emitter e;
+  e.SetSeqFormat(YAML::Flow);
+  emit(e, root);
+  return std::string(e.c_str()) + "\n";
+}
+
+namespace {
+void markdown_table(std::ostringstream& o, const std::vector<KeySpec>& keys) {
+  o << "| key | type | default | range / allowed | unit | meaning |\n";
+  o << "|---|---|---|---|---|---|\n";
+  for (const auto& s : keys) {
+    std::string range;
+    if (!s.allowed.empty()) {
+      range = joined(s.allowed);
+    } else if (s.min < s.max) {
+      std::ostringstream r;
+      r.precision(12);
+      r << "[" << s.min << ", " << s.max << "]";
+      range = r.str();
+    }
+    o << "| `" << s.key << "` | " << s.type << " | `"
+      << (s.default_value.empty() ? "\"\"" : s.default_value) << "` | " << range << " | "
+      << s.unit << " | " << s.doc << " |\n";
+  }
+}
+}  // namespace
+
+std::string schema_markdown(const Registry& registry) {
+  std::ostringstream o;
+  o << "## The experiment and the policy search\n\n";
+  markdown_table(o, base_keys());
+  for (const auto& a : registry.algorithm_names()) {
+    const auto keys = registry.algorithm(a).keys();
+    if (keys.empty()) continue;
+    o << "\n## Algorithm `" << a << "`\n\n" << registry.algorithm(a).description() << "\n\n";
+    markdown_table(o, keys);
+  }
+  for (const auto& t : registry.task_names()) {
+    const TaskPlugin& p = registry.task(t);
+    o << "\n## Task `" << t << "`\n\n" << p.description() << "\n\n";
+    const auto shared = p.shared_defaults();
+    if (!shared.empty()) {
+      o << "Its defaults of shared keys:";
+      bool first = true;
+      for (const auto& [k, v] : shared) {
+        o << (first ? " " : ", ") << "`" << k << "` = `" << v << "`";
+        first = false;
+      }
+      o << ".\n\n";
+    }
+    markdown_table(o, p.keys());
+  }
+  return o.str();
+}
+
+std::string did_you_mean(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = 5;  // suggest only within 4 edits
+  for (const auto& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  return best.empty() ? "" : " (did you mean '" + best + "'?)";
+}
+
+double get_double(const Settings& s, const std::string& key) { return std::stod(s.at(key)); }
+long long get_int(const Settings& s, const std::string& key) { return std::stoll(s.at(key)); }
+bool get_bool(const Settings& s, const std::string& key) { return s.at(key) == "true"; }
+std::vector<double> get_interval(const Settings& s, const std::string& key) {
+  const YAML::Node n = YAML::Load(s.at(key));
+  return {n[0].as<double>(), n[1].as<double>()};
+}
+std::vector<std::string> get_names(const Settings& s, const std::string& key) {
+  std::vector<std::string> out;
+  for (const auto& n : YAML::Load(s.at(key))) out.push_back(n.as<std::string>());
+  return out;
+}
+
+}  // namespace drops::experiment

@@ -1,0 +1,189 @@
+#include "drops/experiment/experiment.hpp"
+
+#include <cmath>
+#include <fstream>
+
+#include "drops/core/errors.hpp"
+
+namespace drops::experiment {
+
+opt::CmaesOptions cmaes_options(const Settings& st) {
+  opt::CmaesOptions c = algo::policy_search_cmaes_defaults();
+  c.max_evaluations = get_int(st, "optimizer.max_evaluations");
+  c.max_restarts = static_cast<int>(get_int(st, "optimizer.restarts"));
+  c.max_run_evaluations = get_int(st, "optimizer.run_evaluations");
+  const std::string restart_from = st.at("optimizer.restart_from");
+  c.restart_start = restart_from == "random"  ? opt::CmaesRestartStart::kRandom
+                    : restart_from == "start" ? opt::CmaesRestartStart::kStart
+                                              : opt::CmaesRestartStart::kMixed;
+  c.tol_fun = c.tol_hist_fun = get_double(st, "optimizer.tol_fun");
+  c.stagnation = get_bool(st, "optimizer.stagnation");
+  c.lambda = static_cast<int>(get_int(st, "optimizer.lambda"));
+  c.sigma0 = get_double(st, "optimizer.sigma0");
+  c.elitism = get_bool(st, "optimizer.elitism");
+  c.active = get_bool(st, "optimizer.active");
+  c.bipop = get_bool(st, "optimizer.bipop");
+  c.uncertainty_handling = get_bool(st, "optimizer.uncertainty_handling");
+  return c;
+}
+
+algo::BlackDropsOptions black_drops_options(const Settings& st) {
+  algo::BlackDropsOptions a;
+  a.episodes = static_cast<int>(get_int(st, "episodes"));
+  a.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
+  a.theta_bound = get_double(st, "policy.bound");
+  auto& m = a.model;
+  m.type = model::parse_model_type(st.at("model.type"));
+  m.rprop.max_iterations = static_cast<int>(get_int(st, "model.rprop.iterations"));
+  m.rprop.tolerance = get_double(st, "model.rprop.tolerance");
+  m.rprop.patience = static_cast<int>(get_int(st, "model.rprop.patience"));
+  m.rprop.penalty = st.at("model.rprop.penalty") == "on";
+  m.rprop.max_length_scale_ratio = get_double(st, "model.rprop.max_length_scale_ratio");
+  m.rprop.max_snr = get_double(st, "model.rprop.max_snr");
+  m.gp_mi.search = st.at("model.gp_mi.search") == "nested" ? model::GpMiSearch::kNested
+                                                           : model::GpMiSearch::kAlternating;
+  m.gp_mi.score = st.at("model.gp_mi.score") == "sum_log_likelihoods"
+                      ? model::GpMiScore::kSumOfLogLikelihoods
+                      : model::GpMiScore::kSumOfLikelihoods;
+  m.gp_mi.max_evaluations = static_cast<int>(get_int(st, "model.gp_mi.max_evaluations"));
+  m.gp_mi.xtol_rel = m.gp_mi.ftol_rel = get_double(st, "model.gp_mi.tolerance");
+  m.gp_mi.rounds = static_cast<int>(get_int(st, "model.gp_mi.rounds"));
+  m.gp_mi.inner_rprop_iterations =
+      static_cast<int>(get_int(st, "model.gp_mi.inner_rprop_iterations"));
+  m.gp_mi.max_points = static_cast<int>(get_int(st, "model.gp_mi.max_points"));
+  m.mi.max_evaluations = static_cast<int>(get_int(st, "model.mi.max_evaluations"));
+  m.mi.xtol_rel = m.mi.ftol_rel = get_double(st, "model.mi.tolerance");
+  a.cmaes = cmaes_options(st);
+  a.prior_optimizations = static_cast<int>(get_int(st, "optimizer.prior_optimizations"));
+  a.keep_start_point = get_bool(st, "optimizer.keep_start");
+  a.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
+                                                            : algo::PolicySelection::kReevaluate;
+  a.reevaluation_rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));
+  a.reevaluation_candidates = static_cast<int>(get_int(st, "optimizer.reevaluation_candidates"));
+  a.rollouts.rollouts = static_cast<int>(get_int(st, "rollouts.count"));
+  a.rollouts.clip = get_double(st, "rollouts.clip");
+  a.rollouts.batch = static_cast<int>(get_int(st, "rollouts.batch"));
+  a.predicted_rollouts = static_cast<int>(get_int(st, "rollouts.predicted"));
+  std::string why;
+  if (!a.IsValid(&why)) throw ConfigError("config: " + why);
+  return a;
+}
+
+namespace {
+
+/// Black-DROPS and its variants (paper Algorithm 1; the model of model.type).
+class BlackDropsPlugin final : public AlgorithmPlugin {
+ public:
+  std::string name() const override { return "black_drops"; }
+  std::string description() const override {
+    return "Black-DROPS (paper Algorithm 1) with the model of model.type: gp, gp_prior, gp_mi "
+           "or mi";
+  }
+  std::string variant(const Settings& s) const override { return s.at("model.type"); }
+  bool uses_prior(const Settings& s) const override { return s.at("model.type") != "gp"; }
+  std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
+    const algo::BlackDropsOptions o = black_drops_options(s);
+    if (model::uses_prior(o.model.type) && !setup.prior)
+      throw ConfigError("config key 'model.type' = '" + s.at("model.type") +
+                        "': this task has no simulator prior; use model.type gp");
+    return std::make_unique<algo::BlackDrops>(o);
+  }
+};
+
+/// The direct search on the real system (algo::DirectSearch).
+class DirectPlugin final : public AlgorithmPlugin {
+ public:
+  std::string name() const override { return "direct"; }
+  std::string description() const override {
+    return "BIPOP-CMA-ES on the real system itself, one real episode per evaluation, no model: "
+           "a model-free baseline and, with a large budget, the ceiling of the policy family. Its "
+           "budget is optimizer.max_evaluations real episodes; `episodes` is not used";
+  }
+  std::vector<KeySpec> keys() const override {
+    return {{"direct.start", "string", "", 0, 0, {}, "-",
+             "algorithm direct: a file of policy parameters, one per line (e.g. a run's "
+             "episodes/NNN/policy.csv), evaluated first and kept unless beaten (empty = the "
+             "centre of the box, not evaluated on its own)"}};
+  }
+  bool uses_prior(const Settings&) const override { return false; }
+  std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
+    algo::DirectSearchOptions o;
+    o.seed = static_cast<std::uint64_t>(get_int(s, "seed"));
+    o.theta_bound = get_double(s, "policy.bound");
+    o.cmaes = cmaes_options(s);
+    const std::string start = s.at("direct.start");
+    if (!start.empty()) o.start = read_start(start, setup.policy->param_dim(), o.theta_bound);
+    std::string why;
+    if (!o.IsValid(&why)) throw ConfigError("config: " + why);
+    return std::make_unique<algo::DirectSearch>(o);
+  }
+
+ private:
+  /// theta0 from a file of one value per line. Throws ConfigError naming the file and line.
+  static VectorXd read_start(const std::string& path, int n, double bound) {
+    const std::string key = "config key 'direct.start' = '" + path + "': ";
+    std::ifstream in(path);
+    if (!in) throw ConfigError(key + "cannot open the file");
+    std::vector<double> v;
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty()) continue;
+      std::size_t used = 0;
+      double x = 0;
+      try {
+        x = std::stod(line, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || !std::isfinite(x))
+        throw ConfigError(key + "line " + std::to_string(v.size() + 1) + ": '" + line +
+                          "' is not a finite number");
+      if (std::abs(x) > bound)
+        throw ConfigError(key + "line " + std::to_string(v.size() + 1) + ": " + line +
+                          " is outside the policy box [-policy.bound, policy.bound]");
+      v.push_back(x);
+    }
+    if (static_cast<int>(v.size()) != n)
+      throw ConfigError(key + "holds " + std::to_string(v.size()) +
+                        " values; the policy has " + std::to_string(n) + " parameters");
+    return Eigen::Map<VectorXd>(v.data(), n);
+  }
+};
+
+}  // namespace
+
+void register_builtin_algorithms(Registry& registry) {
+  registry.add_algorithm(std::make_unique<BlackDropsPlugin>());
+  registry.add_algorithm(std::make_unique<DirectPlugin>());
+}
+
+std::string Experiment::default_run_name(const std::string& stamp) const {
+  std::string n = task + "-" + variant;
+  if (uses_prior && !setup.prior_label.empty()) n += "-" + setup.prior_label;
+  n += "-seed" + std::to_string(seed);
+  if (!stamp.empty()) n += "-" + stamp;
+  return n;
+}
+
+Experiment make_experiment(const Registry& registry, const Settings& settings) {
+  Experiment e;
+  e.settings = settings;
+  resolve_derived_defaults(registry, e.settings);
+  const Settings& st = e.settings;
+  e.task = st.at("task");
+  e.algorithm = st.at("algorithm");
+  const TaskPlugin& task = registry.task(e.task);
+  const AlgorithmPlugin& algorithm = registry.algorithm(e.algorithm);
+  e.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
+  e.threads = static_cast<int>(get_int(st, "threads"));
+  e.output = st.at("output");
+  e.name = st.at("name");
+  e.variant = algorithm.variant(st);
+  e.setup = task.make(st);
+  e.report = task.report_info(st);
+  e.runner = algorithm.make(st, e.setup);
+  e.uses_prior = algorithm.uses_prior(st);
+  return e;
+}
+
+}  // namespace drops::experiment

@@ -1,0 +1,129 @@
+#include "drops/experiment/registry.hpp"
+
+#include <algorithm>
+
+#include "drops/core/errors.hpp"
+
+namespace drops::experiment {
+namespace {
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& a : v) s += (s.empty() ? "" : ", ") + a;
+  return s;
+}
+}  // namespace
+
+algo::Problem TaskSetup::problem() const {
+  algo::Problem p;
+  p.task = task;
+  p.real = real.get();
+  p.policy = policy.get();
+  p.prior = prior;
+  p.prior_parameters = prior_parameters;
+  return p;
+}
+
+void Registry::add_task(std::unique_ptr<TaskPlugin> task) {
+  if (!task) throw InvalidArgument("Registry::add_task: null task");
+  const std::string name = task->name();
+  if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") !=
+                          std::string::npos)
+    throw InvalidArgument("Registry::add_task: task name '" + name +
+                          "': expected lower-case letters, digits and _");
+  if (has_task(name)) throw InvalidArgument("Registry::add_task: task '" + name + "' exists");
+  std::vector<KeySpec> keys = task->keys();
+  for (const auto& k : keys) {
+    bool taken = false;
+    for (const auto& b : base_keys()) taken = taken || b.key == k.key;
+    for (const auto& a : algorithms_)
+      for (const auto& ak : a->keys()) taken = taken || ak.key == k.key;
+    if (taken)
+      throw InvalidArgument("Registry::add_task: task '" + name + "' declares key '" + k.key +
+                            "', which is a base or algorithm key");
+  }
+  unavailable_.erase(name);
+  task_keys_.push_back(std::move(keys));
+  tasks_.push_back(std::move(task));
+}
+
+void Registry::add_unavailable_task(const std::string& name, const std::string& reason) {
+  if (!has_task(name)) unavailable_[name] = reason;
+}
+
+void Registry::add_algorithm(std::unique_ptr<AlgorithmPlugin> algorithm) {
+  if (!algorithm) throw InvalidArgument("Registry::add_algorithm: null algorithm");
+  const std::string name = algorithm->name();
+  for (const auto& a : algorithms_)
+    if (a->name() == name)
+      throw InvalidArgument("Registry::add_algorithm: algorithm '" + name + "' exists");
+  for (const auto& k : algorithm->keys()) {
+    bool taken = task_of_key(k.key) != nullptr;
+    for (const auto& b : base_keys()) taken = taken || b.key == k.key;
+    for (const auto& a : algorithms_)
+      for (const auto& ak : a->keys()) taken = taken || ak.key == k.key;
+    if (taken)
+      throw InvalidArgument("Registry::add_algorithm: algorithm '" + name + "' declares key '" +
+                            k.key + "', which exists already");
+  }
+  algorithms_.push_back(std::move(algorithm));
+}
+
+const TaskPlugin& Registry::task(const std::string& name) const {
+  for (const auto& t : tasks_)
+    if (t->name() == name) return *t;
+  const auto u = unavailable_.find(name);
+  if (u != unavailable_.end())
+    throw ConfigError("config key 'task' = '" + name + "': this drops does not offer the task: " +
+                      u->second);
+  throw ConfigError("config key 'task' = '" + name + "': unknown task (available: " +
+                    joined(task_names()) + ")");
+}
+
+const AlgorithmPlugin& Registry::algorithm(const std::string& name) const {
+  for (const auto& a : algorithms_)
+    if (a->name() == name) return *a;
+  throw ConfigError("config key 'algorithm' = '" + name + "': unknown algorithm (available: " +
+                    joined(algorithm_names()) + ")");
+}
+
+bool Registry::has_task(const std::string& name) const {
+  return std::any_of(tasks_.begin(), tasks_.end(),
+                     [&](const auto& t) { return t->name() == name; });
+}
+
+std::vector<std::string> Registry::task_names() const {
+  std::vector<std::string> v;
+  for (const auto& t : tasks_) v.push_back(t->name());
+  return v;
+}
+
+std::vector<std::string> Registry::algorithm_names() const {
+  std::vector<std::string> v;
+  for (const auto& a : algorithms_) v.push_back(a->name());
+  return v;
+}
+
+std::vector<std::string> Registry::unavailable_task_names() const {
+  std::vector<std::string> v;
+  for (const auto& [name, reason] : unavailable_) v.push_back(name);
+  return v;
+}
+
+std::string Registry::default_task() const {
+  if (tasks_.empty()) throw ConfigError("no task is registered");
+  return tasks_.front()->name();
+}
+
+std::string Registry::default_algorithm() const {
+  if (algorithms_.empty()) throw ConfigError("no algorithm is registered");
+  return algorithms_.front()->name();
+}
+
+const TaskPlugin* Registry::task_of_key(const std::string& key) const {
+  for (std::size_t i = 0; i < tasks_.size(); ++i)
+    for (const auto& k : task_keys_[i])
+      if (k.key == key) return tasks_[i].get();
+  return nullptr;
+}
+
+}  // namespace drops::experiment

@@ -1,0 +1,234 @@
+// GP-MI, paper Algorithm 2 (§IV-B), read top-down:
+//
+//   procedure GP-MI(D, M, phi_0)
+//     phi* = argmax_phi S(phi)                          outer loop: Subplex over phi
+//       S(phi) = score_i( max_{h_i} log p(dx_i - M_i(X; phi) | X, h_i) )   inner loop: Rprop per
+//                                                        output GP; score = log sum_i exp (the sum
+//                                                        of the likelihoods)
+//     return phi*, with the kernels fitted at phi*
+//
+// identify_phi() below is that procedure; nested_search() is the paper's literal nesting and
+// alternating_search() the block-coordinate ascent on the same score.
+#include "drops/model/gp_mi.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include "drops/core/errors.hpp"
+#include "drops/core/parallel.hpp"
+#include "drops/opt/subplex.hpp"
+
+namespace drops::model {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// The residual targets dx - M(x, u; phi), or nothing when the simulator returned a non-finite
+/// output on some transition (counted in *nonfinite): such a phi scores -inf.
+bool residuals(const MeanFunction& prior, const Dataset& d, const VectorXd& phi, MatrixXd& out,
+               long* nonfinite) {
+  long bad = 0;
+  out = d.dx - prior_outputs(prior, d.x, d.u, phi, &bad);
+  *nonfinite += bad;
+  return bad == 0;
+}
+
+/// The outer loop: Subplex over the tunable entries of phi (discrete ones exhaustively) from
+/// parameters.values, maximising S(phi) = score(full phi); candidates the prior rejects score
+/// -inf. Returns the search's summary, in full-phi terms.
+opt::SubplexSummary search_phi(const MeanFunction& prior, const PriorParameters& parameters,
+                               const GpMiOptions& options,
+                               const std::function<double(const VectorXd&)>& score) {
+  opt::MixedBox box{parameters.lower, parameters.upper, parameters.choices};
+  opt::SubplexOptions so;
+  so.max_evaluations = options.max_evaluations;
+  so.xtol_rel = options.xtol_rel;
+  so.ftol_rel = options.ftol_rel;
+  auto s = opt::maximize_mixed(
+      [&](const VectorXd& tuned) {
+        const VectorXd phi = parameters.with_tuned(tuned);
+        prior.check_phi(phi);  // InvalidArgument: -inf
+        return score(phi);
+      },
+      parameters.tuned(), box, so);
+  s.best_x = parameters.with_tuned(s.best_x);
+  return s;
+}
+
+/// The paper's nesting: each evaluation of S(phi) refits every output's kernel with Rprop at the
+/// residuals of phi (warm-started from the best kernels so far). On return gps hold the kernels
+/// of the best phi.
+GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& parameters,
+                          const Dataset& d, const GpMiOptions& options,
+                          const gp::RpropOptions& inner, std::vector<gp::Gp>& gps,
+                          const ModelProgress& progress) {
+  GpMiSummary s;
+  const std::size_t E = gps.size();
+  std::vector<VectorXd> best_h(E);
+  for (std::size_t i = 0; i < E; ++i) best_h[i] = gps[i].h_params();
+  double best_score = -kInf;
+  int evals = 0;
+  std::atomic<long> rprop_its{0};
+  auto S = [&](const VectorXd& phi) {
+    const int k = evals++;
+    MatrixXd t;
+    if (!residuals(prior, d, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
+    VectorXd ll(static_cast<Eigen::Index>(E));
+    std::vector<VectorXd> h(E);
+    parallel_for(E, [&](std::size_t i) {  // inner loop: Rprop per output GP
+      gp::Gp g(static_cast<int>(d.gp_in.cols()));
+      g.set_h_params(best_h[i]);
+      try {
+        g.compute(d.gp_in, t.col(static_cast<Eigen::Index>(i)));
+        rprop_its += g.optimize_h_params(inner).iterations;
+        ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
+        h[i] = g.h_params();
+      } catch (const NumericalError&) {
+        ll[static_cast<Eigen::Index>(i)] = -kInf;
+      }
+    });
+    const double sc = gp_mi_score(ll, options.score);
+    if (sc > best_score) {
+      best_score = sc;
+      for (std::size_t i = 0; i < E; ++i)
+        if (h[i].size()) best_h[i] = h[i];
+    }
+    if (progress && k % 10 == 0) progress("gp-mi", k, best_score);
+    return sc;
+  };
+  const auto r = search_phi(prior, parameters, options, S);
+  s.evaluations = r.evaluations;
+  s.rprop_iterations = rprop_its;
+  s.phi = parameters.values;
+  if (std::isfinite(r.best_value)) {
+    s.phi = r.best_x;
+    s.score = r.best_value;
+    for (std::size_t i = 0; i < E; ++i) gps[i].set_h_params(best_h[i]);
+  }
+  return s;
+}
+
+/// Block-coordinate ascent on S: (a) fit the kernels at the current phi, (b) Subplex over phi
+/// with the kernels fixed (each evaluation re-solves with the factorisations kept), until phi
+/// moves by less than 1e-3 of its interval or `rounds` rounds. On return gps hold the kernels of
+/// the last round.
+GpMiSummary alternating_search(const MeanFunction& prior, const PriorParameters& parameters,
+                               const Dataset& d, const GpMiOptions& options,
+                               const gp::RpropOptions& inner, std::vector<gp::Gp>& gps,
+                               const ModelProgress& progress) {
+  GpMiSummary s;
+  s.phi = parameters.values;
+  const Eigen::Index E = static_cast<Eigen::Index>(gps.size());
+  for (int round = 0; round < options.rounds; ++round) {
+    // (a) kernels at the current phi.
+    MatrixXd targets;
+    if (!residuals(prior, d, s.phi, targets, &s.nonfinite_prior_outputs))
+      break;  // keep phi; the caller's final fit reports the error
+    fit_output_gps(gps, d.gp_in, targets, inner, &s.rprop_iterations);
+    // (b) phi with the kernels fixed.
+    PriorParameters p = parameters;
+    p.values = s.phi;
+    int evals = 0;
+    auto S = [&](const VectorXd& phi) {
+      const int k = evals++;
+      MatrixXd t;
+      if (!residuals(prior, d, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
+      VectorXd ll(E);
+      for (Eigen::Index i = 0; i < E; ++i) {
+        auto& g = gps[static_cast<std::size_t>(i)];
+        g.set_targets(t.col(i));
+        ll[i] = g.log_marginal_likelihood();
+      }
+      const double sc = gp_mi_score(ll, options.score);
+      if (progress && k % 50 == 0) progress("gp-mi", s.evaluations + k, sc);
+      return sc;
+    };
+    const auto r = search_phi(prior, p, options, S);
+    s.evaluations += r.evaluations;
+    s.rounds = round + 1;
+    double move = 0;
+    for (std::size_t k = 0; k < parameters.tunable.size(); ++k) {
+      const int i = parameters.tunable[k];
+      const auto kk = static_cast<Eigen::Index>(k);
+      const double width = std::max(1e-12, parameters.upper[kk] - parameters.lower[kk]);
+      move = std::max(move, std::abs(r.best_x[i] - s.phi[i]) / width);
+    }
+    if (std::isfinite(r.best_value)) {
+      s.phi = r.best_x;
+      s.score = r.best_value;
+    }
+    if (move < 1e-3) break;
+  }
+  return s;
+}
+
+}  // namespace
+
+bool GpMiOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (max_evaluations < 1) return fail("gp_mi.max_evaluations must be >= 1");
+  if (!(xtol_rel >= 0) || !(ftol_rel >= 0)) return fail("gp_mi tolerances must be >= 0");
+  if (rounds < 1) return fail("gp_mi.rounds must be >= 1");
+  if (inner_rprop_iterations < 1) return fail("gp_mi.inner_rprop_iterations must be >= 1");
+  if (max_points < 0) return fail("gp_mi.max_points must be >= 0");
+  return true;
+}
+
+double log_sum_exp(const VectorXd& v) {
+  if (v.size() == 0) return -kInf;
+  const double m = v.maxCoeff();
+  if (!std::isfinite(m)) return m;
+  return m + std::log((v.array() - m).exp().sum());
+}
+
+double gp_mi_score(const VectorXd& ll, GpMiScore score) {
+  if (score == GpMiScore::kSumOfLikelihoods) return log_sum_exp(ll);
+  if ((ll.array() == -kInf).any()) return -kInf;
+  return ll.sum();
+}
+
+VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
+                        const gp::RpropOptions& rprop, long* iterations) {
+  check_size("fit_output_gps: target columns vs GPs", static_cast<long>(gps.size()), targets.cols());
+  const auto E = static_cast<Eigen::Index>(gps.size());
+  VectorXd ll(E);
+  std::vector<int> its(gps.size(), 0);
+  parallel_for(gps.size(), [&](std::size_t i) {
+    auto& g = gps[i];
+    g.compute(in, targets.col(static_cast<Eigen::Index>(i)));
+    its[i] = g.optimize_h_params(rprop).iterations;
+    ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
+  });
+  for (int k : its) *iterations += k;
+  return ll;
+}
+
+GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
+                         const Dataset& data, const GpMiOptions& options,
+                         const gp::RpropOptions& rprop, std::vector<gp::Gp>& gps,
+                         const ModelProgress& progress) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("identify_phi: " + why);
+  parameters.check();
+  check_size("identify_phi: GPs vs prior state_dim", prior.state_dim(),
+             static_cast<long>(gps.size()));
+  check_size("identify_phi: data x columns vs prior state_dim", prior.state_dim(), data.x.cols());
+  // The kernel fits inside the search: the final fit's options with fewer iterations.
+  gp::RpropOptions inner = rprop;
+  inner.max_iterations = options.inner_rprop_iterations;
+  const Dataset d = data.rows(subsample(data.size(), options.max_points));
+  // A purely discrete phi is searched nested: with kernels fitted to one candidate's residuals
+  // (alternating search), every other candidate is scored against them and the search stays
+  // where it started (measured on the hexapod's 7 priors).
+  const bool all_discrete = std::all_of(parameters.choices.begin(), parameters.choices.end(),
+                                        [](const auto& c) { return !c.empty(); });
+  if (options.search == GpMiSearch::kAlternating && !all_discrete)
+    return alternating_search(prior, parameters, d, options, inner, gps, progress);
+  return nested_search(prior, parameters, d, options, inner, gps, progress);
+}
+
+}  // namespace drops::model

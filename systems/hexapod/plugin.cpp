@@ -1,0 +1,238 @@
+// The hexapod task plugin: keys, factory and report labels.
+#include "hexapod/plugin.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "drops/core/errors.hpp"
+#include "hexapod/policy.hpp"
+#include "hexapod/prior.hpp"
+#include "hexapod/real_robot.hpp"
+#include "hexapod/simulator.hpp"
+#include "hexapod/task.hpp"
+
+namespace drops::hexapod {
+namespace {
+
+using experiment::KeySpec;
+using experiment::Settings;
+
+const std::vector<std::string> kLegChoices = {"intact", "leg0", "leg1", "leg2",
+                                              "leg3",   "leg4", "leg5"};
+const std::vector<std::string> kDamageChoices = {"none", "leg0", "leg1", "leg2",
+                                                 "leg3", "leg4", "leg5"};
+/// "intact"/"none" -> -1, "legk" -> k.
+int leg_index(const std::string& name) {
+  return name == "intact" || name == "none" ? -1 : name[3] - '0';
+}
+
+class HexapodPlugin final : public experiment::TaskPlugin {
+ public:
+  std::string name() const override { return "hexapod"; }
+  std::string description() const override {
+    return "Hexapod locomotion (paper §V-B) in DART: a 6-legged robot (48-D state, 18 joint "
+           "targets) learns the 36-parameter open-loop gait that walks fastest; the prior family "
+           "is the intact robot and its 6 single-leg removals, the \"real\" robot has servos, "
+           "friction, noise and optional damage.";
+  }
+
+  std::vector<KeySpec> keys() const override {
+    const HexapodTaskOptions to;
+    std::vector<KeySpec> s;
+    auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
+    add({"hexapod.horizon", "int", std::to_string(to.horizon), 1, 10000, {}, "-",
+         "control steps of 0.1 s per episode (40 = the paper's 4 s)"});
+    add({"hexapod.prior.start", "enum", "intact", 0, 0, kLegChoices, "-",
+         "the prior simulator of episode 1 and of gp_prior, GP-MI's starting point: the intact "
+         "robot or leg k removed (legs 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, "
+         "4 mid-right, 5 rear-right)"});
+    add({"hexapod.prior.choices", "names", "[intact, leg0, leg1, leg2, leg3, leg4, leg5]", 0, 0,
+         kLegChoices, "-", "the prior family GP-MI and MI search exhaustively (the paper's 7)"});
+    add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
+         "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
+    add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
+         "a leg of the real robot whose tibia is shortened (damage outside the prior family)"});
+    add({"hexapod.damage.tibia_factor", "double", "0.5", 0.05, 1, {}, "-",
+         "the shortened tibia's length as a fraction of the intact one"});
+    add({"hexapod.damage.blocked_leg", "enum", "none", 0, 0, kDamageChoices, "-",
+         "a leg of the real robot with one joint blocked (damage outside the prior family)"});
+    add({"hexapod.damage.blocked_joint", "int", "1", 0, 2, {}, "-",
+         "which joint of blocked_leg is blocked (0 hip, 1 femur, 2 tibia)"});
+    add({"hexapod.damage.blocked_angle", "double", "0", -1.5707963267948966, 1.5707963267948966,
+         {}, "rad", "the angle the blocked joint is held at (within its limits)"});
+    add({"hexapod.noise", "bool", "true", 0, 0, {}, "-",
+         "measurement noise on the real robot's state (motion capture, encoders)"});
+    add({"hexapod.guard", "enum", "stop", 0, 0, {"stop", "clamp"}, "-",
+         "what the prior does with an implausible predicted state (non-finite, beyond joint "
+         "limits, body height out of range): stop that rollout, or clamp the state and go on; "
+         "every event is counted in the episode summary"});
+    return s;
+  }
+
+  std::map<std::string, std::string> shared_defaults() const override {
+    // The gait's parameters in [0, 1] are theta + 0.5; rollouts cost about 50 times the
+    // pendubot's; the GPs on 40-400 points in 66 input dimensions need the soft walls
+    // (docs/hexapod.md).
+    return {{"policy.bound", "0.5"},
+            {"optimizer.max_evaluations", "2000"},
+            {"optimizer.reevaluation_rollouts", "20"},
+            {"model.rprop.max_length_scale_ratio", "10"},
+            {"model.rprop.penalty", "on"}};
+  }
+
+  experiment::TaskSetup make(const Settings& st) const override {
+    using experiment::get_double;
+    using experiment::get_int;
+    experiment::TaskSetup s;
+    // The prior family: phi = [removed_leg], one discrete tunable entry (paper §V-B: 7 priors).
+    const int prior_start = leg_index(st.at("hexapod.prior.start"));
+    std::vector<int> choices;
+    for (const auto& n : experiment::get_names(st, "hexapod.prior.choices"))
+      choices.push_back(leg_index(n));
+    std::sort(choices.begin(), choices.end());
+    if (choices.empty())
+      throw ConfigError("config key 'hexapod.prior.choices' = '[]': name at least one prior");
+    if (std::find(choices.begin(), choices.end(), prior_start) == choices.end())
+      throw ConfigError("config key 'hexapod.prior.start' = '" + st.at("hexapod.prior.start") +
+                        "': not among hexapod.prior.choices = " + st.at("hexapod.prior.choices"));
+    const int removed = leg_index(st.at("hexapod.damage.removed_leg"));
+    for (const char* k : {"hexapod.damage.shortened_leg", "hexapod.damage.blocked_leg"}) {
+      const int leg = leg_index(st.at(k));
+      if (leg >= 0 && leg == removed)
+        throw ConfigError("config: hexapod.damage: leg" + std::to_string(leg) +
+                          " is removed; it cannot also be shortened or blocked");
+    }
+    auto& p = s.prior_parameters;
+    p.names = {"removed_leg"};
+    p.values = VectorXd::Constant(1, prior_start);
+    p.tunable = {0};
+    p.lower = VectorXd::Constant(1, choices.front());
+    p.upper = VectorXd::Constant(1, choices.back());
+    p.choices = {std::vector<double>(choices.begin(), choices.end())};
+    s.phi_actual = {static_cast<double>(removed)};
+    s.prior_label = prior_label(st);
+
+    HexapodTaskOptions to;
+    to.horizon = static_cast<int>(get_int(st, "hexapod.horizon"));
+    auto task = std::make_shared<HexapodTask>(to);
+    s.task = task;
+
+    RealRobotOptions ro;
+    ro.spec = real_robot_spec(st);
+    if (st.at("hexapod.noise") != "true") ro.noise = MeasurementNoise{0, 0, 0, 0, 0, 0};
+    std::string why;
+    if (!ro.IsValid(&why)) throw ConfigError("config: hexapod.damage: " + why);
+    s.real = std::make_unique<HexapodRealSystem>(ro);
+
+    HexapodGaitPolicyOptions po;
+    po.observation_dim = kObservationDim;
+    po.theta_bound = get_double(st, "policy.bound");
+    s.policy = std::make_unique<HexapodGaitPolicy>(po);
+
+    HexapodPriorOptions mo;
+    mo.guard.policy =
+        st.at("hexapod.guard") == "clamp" ? StateGuardPolicy::kClamp : StateGuardPolicy::kStop;
+    mo.pool_capacity = static_cast<int>(get_int(st, "threads"));  // 0: hardware threads
+    auto prior = std::make_shared<HexapodPrior>(mo);
+    s.prior = prior;
+
+    for (const char* block : {"q", "dq"})
+      for (int k = 0; k < kNumLegs; ++k)
+        for (int j = 0; j < kJointsPerLeg; ++j)
+          s.state_names.push_back(std::string(block) + "_" + joint_name(k, j));
+    for (const char* n : {"x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "wx", "wy", "wz"})
+      s.state_names.emplace_back(n);
+    for (int k = 0; k < kNumLegs; ++k)
+      for (int j = 0; j < kJointsPerLeg; ++j) s.action_names.push_back("u_" + joint_name(k, j));
+
+    // Per episode: the walking speed on the robot and on the model's predicted trajectory, and
+    // the state guard's events since the previous episode (policy search and model learning).
+    s.metric_names = {"walking_speed_m_s", "predicted_speed_m_s", "guard_evaluations",
+                      "guard_stopped", "guard_clamped"};
+    auto last = std::make_shared<StateGuardCounts>();
+    s.metrics = [task, prior, last](const algo::EpisodeRecord& r) {
+      const StateGuardCounts c = prior->guard_counts();
+      const double predicted = r.predicted.states.rows() > 1
+                                   ? task->walking_speed(r.predicted)
+                                   : std::numeric_limits<double>::quiet_NaN();
+      std::vector<double> v = {task->walking_speed(r.real), predicted,
+                               static_cast<double>(c.evaluations - last->evaluations),
+                               static_cast<double>(c.stopped - last->stopped),
+                               static_cast<double>(c.clamped - last->clamped)};
+      *last = c;
+      return v;
+    };
+
+    // Foot heights of the real robot's body for the gait diagram (drops plot).
+    for (int k = 0; k < kNumLegs; ++k)
+      s.state_extra_names.push_back(fmt::format("foot{}_height", k));
+    PriorOptions fk = ro.simulator;
+    fk.actuation = Actuation::kVelocity;
+    auto sim = std::make_shared<PriorSimulator>(ro.spec, fk);
+    s.state_extras = [sim](const VectorXd& x) {
+      std::vector<double> v(kNumLegs, std::numeric_limits<double>::quiet_NaN());
+      if (!x.allFinite()) return v;
+      sim->set_state(x);
+      const auto f = sim->foot_heights();
+      v.assign(f.begin(), f.end());
+      return v;
+    };
+    return s;
+  }
+
+  std::string prior_label(const Settings& st) const override {
+    return st.at("hexapod.prior.start");
+  }
+
+
+  experiment::ReportInfo report_info(const Settings& st) const override {
+    experiment::ReportInfo r;
+    std::vector<std::string> parts;
+    for (const auto& [key, word] : {std::pair{"hexapod.damage.removed_leg", "removed"},
+                                    std::pair{"hexapod.damage.shortened_leg", "shortened"},
+                                    std::pair{"hexapod.damage.blocked_leg", "blocked"}}) {
+      const std::string v = st.at(key);
+      if (v != "none") parts.push_back(v + " " + word);
+    }
+    std::string label;
+    for (const auto& part : parts) label += (label.empty() ? "" : ", ") + part;
+    r.panel.label = label.empty() ? "intact" : label;
+    r.panel.rank = parts.empty() ? 0 : 1;
+    r.panel.title = "real robot: " + r.panel.label;
+    r.metric = {"walking_speed_m_s", "walking speed", "m/s", "speed", "predicted_speed_m_s", 0.22,
+                "paper's physical robot, intact (0.22 m/s)"};
+    // Every episode "succeeds" or not by a speed threshold of ours (HexapodTaskOptions::
+    // solved_speed), not a criterion of the paper: reports show speeds instead.
+    r.success_criterion = false;
+    for (int leg = -1; leg < kNumLegs; ++leg)
+      r.phi_value_labels[leg] = leg < 0 ? "intact" : "leg" + std::to_string(leg);
+    r.phi_tunable = {"removed_leg"};
+    return r;
+  }
+};
+
+}  // namespace
+
+HexapodSpec real_robot_spec(const Settings& st) {
+  HexapodSpec spec = HexapodSpec::with_leg_removed(leg_index(st.at("hexapod.damage.removed_leg")));
+  const int shortened = leg_index(st.at("hexapod.damage.shortened_leg"));
+  if (shortened >= 0)
+    spec.legs[static_cast<std::size_t>(shortened)].tibia_length_factor =
+        std::stod(st.at("hexapod.damage.tibia_factor"));
+  const int blocked = leg_index(st.at("hexapod.damage.blocked_leg"));
+  if (blocked >= 0) {
+    auto& leg = spec.legs[static_cast<std::size_t>(blocked)];
+    leg.blocked_joint = static_cast<int>(std::stoll(st.at("hexapod.damage.blocked_joint")));
+    leg.blocked_angle = std::stod(st.at("hexapod.damage.blocked_angle"));
+  }
+  return spec;
+}
+
+void register_task(experiment::Registry& registry) {
+  registry.add_task(std::make_unique<HexapodPlugin>());
+}
+
+}  // namespace drops::hexapod

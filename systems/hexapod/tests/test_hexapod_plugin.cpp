@@ -1,0 +1,108 @@
+// The hexapod task plugin: its keys, the prior family it builds, its defaults of shared keys, its
+// damage and its report labels.
+#include <gtest/gtest.h>
+
+#include "drops/core/errors.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/pendubot/plugin.hpp"
+#include "hexapod/plugin.hpp"
+
+using namespace drops;
+
+namespace {
+const experiment::Registry& registry() {
+  static const std::unique_ptr<experiment::Registry> r = [] {
+    auto reg = std::make_unique<experiment::Registry>();
+    experiment::register_builtin_algorithms(*reg);
+    pendubot::register_task(*reg);
+    hexapod::register_task(*reg);
+    return reg;
+  }();
+  return *r;
+}
+experiment::Experiment make(const std::string& yaml, const std::vector<std::string>& ov = {}) {
+  return experiment::make_experiment(registry(), experiment::load_settings(registry(), yaml, ov));
+}
+std::string error_of(const std::string& yaml, const std::vector<std::string>& ov = {}) {
+  try {
+    make(yaml, ov);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
+  const auto e = make("task: hexapod\n");
+  const auto a = experiment::black_drops_options(e.settings);
+  const auto& p = e.setup.prior_parameters;
+  EXPECT_EQ(e.task, "hexapod");
+  EXPECT_EQ(p.names, (std::vector<std::string>{"removed_leg"}));
+  ASSERT_EQ(p.values.size(), 1);
+  EXPECT_EQ(p.values[0], -1.0);  // starts from the intact prior
+  EXPECT_EQ(p.tunable, (std::vector<int>{0}));
+  ASSERT_EQ(p.choices.size(), 1u);
+  EXPECT_EQ(p.choices[0], (std::vector<double>{-1, 0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(p.lower[0], -1.0);
+  EXPECT_EQ(p.upper[0], 5.0);
+  EXPECT_EQ(e.setup.prior_label, "intact");
+  EXPECT_EQ(e.setup.phi_actual, (std::vector<double>{-1}));
+  EXPECT_DOUBLE_EQ(a.theta_bound, 0.5);  // gait parameters theta + 0.5 in [0, 1]
+  EXPECT_EQ(a.cmaes.max_evaluations, 2000);
+  EXPECT_EQ(a.reevaluation_rollouts, 20);
+  EXPECT_EQ(e.setup.task->horizon(), 40);
+  // PILCO's soft walls: on by default for the hexapod, with its own length-scale ratio.
+  EXPECT_TRUE(a.model.rprop.penalty);
+  EXPECT_DOUBLE_EQ(a.model.rprop.max_length_scale_ratio, 10.0);
+  // Explicit values win over the derived ones.
+  const auto x = experiment::black_drops_options(
+      make("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}).settings);
+  EXPECT_DOUBLE_EQ(x.theta_bound, 0.25);
+  EXPECT_EQ(x.cmaes.max_evaluations, 300);
+  // Report labels: the damage as panel, the walking speed as metric, no success criterion.
+  EXPECT_EQ(e.report.panel.label, "intact");
+  EXPECT_EQ(e.report.metric.name, "walking_speed_m_s");
+  EXPECT_FALSE(e.report.success_criterion);
+  EXPECT_EQ(e.report.phi_value_labels.at(5), "leg5");
+}
+
+TEST(HexapodPlugin, DamageAndPriorChoices) {
+  const auto e = make(
+      "task: hexapod\nhexapod:\n  damage: {removed_leg: leg5, blocked_leg: leg1, blocked_joint: 2}\n"
+      "  prior: {start: leg0, choices: [leg5, intact, leg0]}\n");
+  const auto spec = hexapod::real_robot_spec(e.settings);
+  EXPECT_TRUE(spec.legs[5].removed);
+  EXPECT_EQ(spec.legs[1].blocked_joint, 2);
+  EXPECT_EQ(e.setup.phi_actual, (std::vector<double>{5}));
+  EXPECT_EQ(e.setup.prior_parameters.choices[0], (std::vector<double>{-1, 0, 5}));  // sorted
+  EXPECT_EQ(e.setup.prior_parameters.values[0], 0.0);
+  EXPECT_EQ(e.setup.prior_label, "leg0");
+  EXPECT_EQ(e.report.panel.label, "leg5 removed, leg1 blocked");
+  // A start outside the family, an impossible damage and an unknown leg name are named.
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.start=leg2", "hexapod.prior.choices=[intact]"})
+                .find("hexapod.prior.start"),
+            std::string::npos);
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.damage.removed_leg=leg3",
+                                          "hexapod.damage.shortened_leg=leg3"})
+                .find("leg3 is removed"),
+            std::string::npos);
+  const std::string bad = error_of("task: hexapod\n", {"hexapod.damage.removed_leg=leg7"});
+  EXPECT_NE(bad.find("hexapod.damage.removed_leg"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("leg5"), std::string::npos) << bad;  // lists what is allowed
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.damge.removed_leg=leg0"}).find("did you mean"),
+            std::string::npos);
+  // A pendubot key in a hexapod experiment names the task it belongs to.
+  EXPECT_NE(error_of("task: hexapod\n", {"prior.preset=tunable"}).find("belongs to task 'pendubot'"),
+            std::string::npos);
+}
+
+// Settings written before a default became task-dependent hold the old value explicitly; once
+// resolved, both compare equal.
+TEST(HexapodPlugin, ResolvedDerivedDefaultsEqualExplicitOnes) {
+  auto hex = experiment::load_settings(registry(), "task: hexapod\n", {"policy.bound=0.25"});
+  EXPECT_EQ(hex.at("policy.bound"), "0.25");  // explicit values stay
+  EXPECT_EQ(hex.at("optimizer.max_evaluations"), "2000");
+  EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "10");
+  EXPECT_EQ(hex.at("model.rprop.penalty"), "on");
+}
