@@ -118,7 +118,7 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
   write_report_markdown(report, out_dir / "report.md");
   std::vector<fs::path> files = {out_dir / "report.md", out_dir / "summary.csv",
                                  out_dir / "returns.csv", out_dir / "phi.csv"};
-  // The task's metric (the hexapod: walking speed) in its own table and figure.
+  // The task's metric (e.g. a walking speed) in its own table and figure.
   ReportMetric metric;
   for (const auto& g : report.groups)
     if (g.has_metric() && metric.name.empty()) metric = g.report.metric;
@@ -241,7 +241,8 @@ void add_plot_command(CLI::App& app, Action& action, const Registry& registry) {
   auto* sub = app.add_subcommand(
       "plot",
       "Figures of one run: returns.png, phi.png, trajectories-NNN.png (real vs predicted) and "
-      "the task's own (the hexapod: speed, path, gait)");
+      "the task's metric (e.g. a walking speed), a body path and a gait diagram when the "
+      "trajectories hold body positions and foot heights");
   sub->add_option("RUN_DIR", args->run_dir, "run directory written by drops run")->required();
   sub->add_option("--episodes", args->episodes,
                   "episodes whose trajectories to draw, e.g. 1,5,10 (default: the first solved "

@@ -48,7 +48,7 @@ std::vector<KeySpec> build_base_keys() {
   const double big = 1e9;
   add({"task", "string", "", 0, 0, {}, "-",
        "the learning problem, one of the registered tasks (empty = the first registered: the "
-       "pendubot in the drops command line); `drops config --markdown` lists each task's keys"});
+       "first task of the drops command line); `drops config --markdown` lists each task's keys"});
   add({"algorithm", "string", "", 0, 0, {}, "-",
        "the learning algorithm: black_drops (Algorithm 1 with the model of model.type; the "
        "default) or direct (CMA-ES on the real system itself, no model); empty = black_drops"});
@@ -71,13 +71,13 @@ std::vector<KeySpec> build_base_keys() {
        "window of the tolerance test"});
   add({"model.rprop.penalty", "enum", "auto", 0, 0, {"auto", "on", "off"}, "-",
        "PILCO's soft walls on extreme length scales and signal-to-noise ratios in the kernel fits "
-       "(auto = the task's choice: on for the hexapod, whose GPs on 40-400 points in 66 input "
-       "dimensions otherwise interpolate noise, off for the pendubot; the reference used them for "
-       "its no-prior variant: model.type gp with penalty on)"});
+       "(auto = the task's choice, off unless the task says otherwise: a task whose GPs have few "
+       "points in many input dimensions needs them, or they interpolate noise; the reference used "
+       "them for its no-prior variant: model.type gp with penalty on)"});
   add({"model.rprop.max_length_scale_ratio", "double", "", 1.001, 1e6, {}, "-",
        "soft walls: length scale l_d within [s_d / ratio, ratio s_d], s_d the spread of input d "
        "(empty = the task's choice: " + num(m.rprop.max_length_scale_ratio) +
-           ", PILCO's value, unless the task says otherwise; the hexapod: 10)"});
+           ", PILCO's value, unless the task says otherwise)"});
   add({"model.rprop.max_snr", "double", num(m.rprop.max_snr), 1.001, 1e9, {}, "-",
        "soft walls: signal-to-noise ratio sigma_f / sigma_n at most this (PILCO: 500)"});
   add({"model.gp_mi.search", "enum",
@@ -107,11 +107,11 @@ std::vector<KeySpec> build_base_keys() {
        "Subplex relative tolerance of MI"});
   add({"policy.bound", "double", "", 1e-3, 1000, {}, "-",
        "policy parameters are searched in [-bound, bound] (empty = the task's choice: " +
-           num(d.theta_bound) + " unless the task says otherwise; the hexapod's gait: 0.5)"});
+           num(d.theta_bound) + " unless the task says otherwise)"});
   add({"optimizer.max_evaluations", "int", "", 10, 100000000, {}, "-",
        "CMA-ES policy evaluations per optimization, all restarts (empty = the task's choice: " +
            num(static_cast<double>(c.max_evaluations)) +
-           " unless the task says otherwise; the hexapod: 2000); for algorithm=direct, the number "
+           " unless the task says otherwise); for algorithm=direct, the number "
            "of real episodes"});
   add({"optimizer.run_evaluations", "int", "", 0, 100000000, {}, "-",
        "CMA-ES evaluations of one run before it restarts (empty = a quarter of "
@@ -155,7 +155,7 @@ std::vector<KeySpec> build_base_keys() {
   add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
        "selection reevaluate: rollouts per re-evaluated policy, on common random numbers (empty = "
        "the task's choice: " + num(d.reevaluation_rollouts) +
-           " unless the task says otherwise; the hexapod, whose rollouts cost about 50 times more: 20)"});
+           " unless the task says otherwise)"});
   add({"optimizer.reevaluation_candidates", "int", num(d.reevaluation_candidates), 1, 10000, {},
        "-",
        "selection reevaluate: best distinct evaluated policies re-evaluated (besides the start and "

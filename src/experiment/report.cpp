@@ -278,7 +278,7 @@ CampaignReport aggregate_campaign(const Registry& registry, const fs::path& camp
     values.push_back(std::move(v));
   }
   // An axis names variants when runs of one panel and model differ in it (an axis that chooses
-  // the panel, e.g. the pendubot's prior or the hexapod's damage, does not).
+  // the panel, e.g. a starting prior or a damage of the real robot, does not).
   for (std::size_t a = 0; a < axes.size(); ++a) {
     std::map<std::pair<std::string, std::string>, std::set<std::string>> seen;
     bool splits = false;
@@ -502,7 +502,7 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
       with_metric ? fmt::format(" median final {} ({}) |", with_metric->report.metric.label,
                                 with_metric->report.metric.unit)
                   : "";
-  // A task without a success criterion (the hexapod) shows the final return and metric only.
+  // A task without a success criterion shows the final return and metric only.
   t += "\n## Summary\n\n| variant | panel | runs | complete |" +
        std::string(success ? " solved at least once | solved at last episode | median first "
                              "solve (episode) | median first solve (s) |"

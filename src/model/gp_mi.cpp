@@ -223,7 +223,7 @@ GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& param
   const Dataset d = data.rows(subsample(data.size(), options.max_points));
   // A purely discrete phi is searched nested: with kernels fitted to one candidate's residuals
   // (alternating search), every other candidate is scored against them and the search stays
-  // where it started (measured on the hexapod's 7 priors).
+  // where it started (measured on a family of 7 discrete priors).
   const bool all_discrete = std::all_of(parameters.choices.begin(), parameters.choices.end(),
                                         [](const auto& c) { return !c.empty(); });
   if (options.search == GpMiSearch::kAlternating && !all_discrete)

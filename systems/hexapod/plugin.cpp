@@ -74,7 +74,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
 
   std::map<std::string, std::string> shared_defaults() const override {
     // The gait's parameters in [0, 1] are theta + 0.5; rollouts cost about 50 times the
-    // pendubot's; the GPs on 40-400 points in 66 input dimensions need the soft walls
+    // default task's; the GPs on 40-400 points in 66 input dimensions need the soft walls
     // (docs/hexapod.md).
     return {{"policy.bound", "0.5"},
             {"optimizer.max_evaluations", "2000"},

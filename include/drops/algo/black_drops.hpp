@@ -38,7 +38,7 @@ opt::CmaesOptions policy_search_cmaes_defaults();
 model::ModelOptions black_drops_model_defaults();
 
 /// Options of Algorithm 1. Defaults follow settings.md §1 and §5 (and are the defaults of the
-/// drops command line on the pendubot).
+/// drops command line unless a task changes them).
 struct BlackDropsOptions {
   int episodes = 10;              ///< real episodes in total, including the first one, >= 1
   std::uint64_t seed = 1;         ///< the run's single seed; every random stream derives from it

@@ -1,7 +1,7 @@
 #pragma once
 /// \file The policy optimized directly on the real system by BIPOP-aCMA-ES, one real episode per
 /// evaluation and no model. Not the paper's method: a model-free baseline, and with a large budget
-/// the ceiling of what the policy family achieves on the robot (docs/results/hexapod.md).
+/// the ceiling of what the policy family achieves on the robot.
 
 #include <cstdint>
 #include <string>

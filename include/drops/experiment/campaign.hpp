@@ -3,12 +3,12 @@
 /// into runs, and the comparison of a run's settings with an existing run directory's. Both
 /// `drops campaign` (which runs it) and `drops report` (which reads it back) use this.
 ///
-///   name: pendubot            # campaign directory name (default: the file's stem)
+///   name: my-campaign         # campaign directory name (default: the file's stem)
 ///   output: campaigns         # parent directory
 ///   jobs: 2                   # runs at once (local)
 ///   threads: 1                # worker threads of each run
 ///   grid: {model.type: [gp_mi, mi], seed: {first: 1, count: 5}}
-///   settings: {task: pendubot, episodes: 15}
+///   settings: {task: cartpole, episodes: 15}
 
 #include <string>
 #include <utility>

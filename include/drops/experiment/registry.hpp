@@ -1,10 +1,10 @@
 #pragma once
-/// \file Tasks and algorithms as plugins. A task (the pendubot, the hexapod, your own robot)
+/// \file Tasks and algorithms as plugins. A task (a robot of the paper, your own robot)
 /// contributes its configuration keys and builds, from validated settings, everything an
 /// experiment needs: the task, the real system, the policy family, the simulator prior and the
 /// names the run directory writes. An algorithm contributes its keys and builds an
 /// algo::Algorithm. Registration is explicit: the application's main() calls each task's
-/// register function (e.g. drops::pendubot::register_task(registry)); nothing registers itself.
+/// register function (e.g. my_robot::register_task(registry)); nothing registers itself.
 
 #include <functional>
 #include <limits>
@@ -18,7 +18,7 @@
 
 namespace drops::experiment {
 
-/// A per-episode quantity that a task reports next to the return (e.g. the hexapod's walking
+/// A per-episode quantity that a task reports next to the return (e.g. a walking robot's
 /// speed): one of TaskSetup::metric_names, with how reports label it. Empty name: none.
 struct ReportMetric {
   std::string name;   ///< a metric name, e.g. "walking_speed_m_s"
@@ -34,7 +34,7 @@ struct ReportMetric {
 };
 
 /// Where a run appears in a campaign report: one panel per distinct `label`, panels sorted by
-/// `rank`, then label (e.g. the pendubot's priors in Table I order, A to D).
+/// `rank`, then label (e.g. the priors of the paper's Table I in order, A to D).
 struct Panel {
   std::string label;  ///< e.g. "tunable-useful" or "leg5 removed"
   int rank = 0;
@@ -71,7 +71,7 @@ struct TaskSetup {
   /// from the thread that runs the algorithm.
   std::vector<std::string> metric_names;
   std::function<std::vector<double>(const algo::EpisodeRecord&)> metrics;
-  /// Extra columns of the trajectory files computed from each state (e.g. the hexapod's foot
+  /// Extra columns of the trajectory files computed from each state (e.g. a legged robot's foot
   /// heights for the gait diagram); names and a function of the state (dim E) returning one value
   /// per name. May be empty.
   std::vector<std::string> state_extra_names;
@@ -84,7 +84,7 @@ struct TaskSetup {
 class TaskPlugin {
  public:
   virtual ~TaskPlugin() = default;
-  /// The value of the `task` key, e.g. "pendubot"; [a-z0-9_]+.
+  /// The value of the `task` key, e.g. "cartpole"; [a-z0-9_]+.
   virtual std::string name() const = 0;
   /// One line for help texts and docs.
   virtual std::string description() const = 0;

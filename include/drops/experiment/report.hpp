@@ -50,7 +50,7 @@ struct EpisodeStats {
   /// are left out).
   std::vector<double> phi_median;
   /// Runs at k per value of phi's first component, in increasing value order (for a discrete phi
-  /// such as the hexapod's removed leg: how many runs used each prior).
+  /// such as a removed leg's index: how many runs used each prior).
   std::vector<std::pair<double, int>> phi_counts;
   /// The task's report metric (ReportInfo::metric) at k; runs = 0 when none.
   Quartiles metric;

@@ -28,7 +28,7 @@ enum class GpMiSearch {
   /// phi, for up to `rounds` rounds or until phi stops moving. Much cheaper; same fixed points.
   /// When every tunable parameter is discrete, GP-MI uses kNested instead: with the kernels fitted
   /// to the starting candidate's residuals, the others are scored against them and the search
-  /// stays at its start (measured on the hexapod's 7 priors).
+  /// stays at its start (measured on a family of 7 discrete priors).
   kAlternating,
 };
 
@@ -36,7 +36,7 @@ enum class GpMiSearch {
 enum class GpMiScore {
   /// log sum_i exp(l_i): the paper's "sum of the likelihoods" (settings.md §4). Dominated by the
   /// single best-fitting output, so with many outputs that every prior predicts alike (the
-  /// hexapod's 36 joint outputs) it can ignore the outputs that tell the priors apart.
+  /// joint outputs of a legged robot) it can ignore the outputs that tell the priors apart.
   kSumOfLikelihoods,
   /// sum_i l_i: the joint log likelihood of the independent output GPs (the product of the
   /// likelihoods), which every output informs.

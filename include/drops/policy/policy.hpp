@@ -21,7 +21,7 @@ class Policy {
   virtual const VectorXd& params() const = 0;
   /// u = pi(obs, t | theta); obs: dim O, u: dim U. t: time since the start of the episode in s
   /// (step index * task dt; run_episode and evaluate_policies pass it), for open-loop policies
-  /// such as the hexapod's periodic gait; feedback policies ignore it.
+  /// such as a periodic gait; feedback policies ignore it.
   virtual void act(const VectorXd& obs, double t, Eigen::Ref<VectorXd> u) const = 0;
   virtual std::unique_ptr<Policy> clone() const = 0;
 };
@@ -35,14 +35,14 @@ struct NeuralNetPolicyOptions {
   VectorXd input_scale;
   double hidden_gain = 5.0;  ///< h = tanh(hidden_gain * W1 [obs/scale; 1])
   double output_gain = 5.0;  ///< u = max_action * tanh(output_gain * W2 [h; 1])
-  double max_action = 3.5;   ///< |u| <= max_action (> 0), in the action's unit (N m for the pendubot)
+  double max_action = 3.5;   ///< |u| <= max_action (> 0), in the action's unit
   bool IsValid(std::string* why) const;
 };
 
-/// One-hidden-layer tanh network (Black-DROPS' pendubot policy, settings.md §2):
+/// One-hidden-layer tanh network (Black-DROPS' policy of the paper's swing-up task):
 ///   h = tanh(g_h W1 [obs ./ scale; 1]),  u = u_max tanh(g_o W2 [h; 1]).
 /// theta = [W1 row-major (hidden x (O+1)); W2 row-major (U x (hidden+1))]:
-/// (6+1)*10 + (10+1)*1 = 81 parameters for the pendubot.
+/// (O+1)*hidden + (hidden+1)*U parameters (81 for O = 6, 10 hidden units, U = 1).
 class NeuralNetPolicy final : public Policy {
  public:
   /// Throws InvalidArgument when options are invalid. Parameters start at zero.
