@@ -119,15 +119,24 @@ std::array<double, 2> tip_position(const VectorXd& x, double l1, double l2) {
   return {-l1 * std::sin(x[2]) - l2 * std::sin(x[3]), l1 * std::cos(x[2]) + l2 * std::cos(x[3])};
 }
 
+bool TaskOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(dt > 0) || !(duration >= dt))
+    return fail("need dt > 0 and duration >= dt, got dt = " + std::to_string(dt) +
+                ", duration = " + std::to_string(duration));
+  if (substeps < 1) return fail("need substeps >= 1");
+  if (!(max_torque > 0) || !(reward_sigma > 0)) return fail("need max_torque > 0 and reward_sigma > 0");
+  if (!(solved_radius > 0) || !(solved_window >= 0))
+    return fail("need solved_radius > 0 and solved_window >= 0");
+  return true;
+}
+
 SwingUpTask::SwingUpTask(const TaskOptions& options) : options_(options) {
-  if (!(options.dt > 0) || !(options.duration >= options.dt)) {
-    throw InvalidArgument("pendubot task: need dt > 0 and duration >= dt, got dt = " +
-                          std::to_string(options.dt) + ", duration = " +
-                          std::to_string(options.duration));
-  }
-  if (options.substeps < 1 || !(options.max_torque > 0) || !(options.reward_sigma > 0)) {
-    throw InvalidArgument("pendubot task: need substeps >= 1, max_torque > 0, reward_sigma > 0");
-  }
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("pendubot task: " + why);
   horizon_ = static_cast<int>(std::lround(options.duration / options.dt));
 }
 

@@ -57,6 +57,9 @@ struct TaskOptions {
   double goal_l2 = 0.5;
   double solved_radius = 0.15; ///< the tip must stay within this distance of the goal, m
   double solved_window = 0.5;  ///< ... over the last solved_window seconds of the episode
+  /// Returns true when dt > 0, duration >= dt, substeps >= 1, max_torque > 0, reward_sigma > 0,
+  /// solved_radius > 0 and solved_window >= 0; otherwise false and the reason in *why.
+  bool IsValid(std::string* why) const;
 };
 
 /// Tip (end-effector) position (x, y) in m for state x (dim 4) and link lengths l1, l2.
