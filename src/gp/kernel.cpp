@@ -1,4 +1,4 @@
-// Squared-exponential ARD kernel (Rasmussen & Williams 2006, eq. 5.1).
+// Squared-exponential ARD kernel (Rasmussen & Williams 2006, eq. 5.1) and Matern 5/2 (eq. 4.17).
 #include "drops/gp/kernel.hpp"
 
 #include <cmath>
@@ -16,6 +16,16 @@ double SquaredExpArd::operator()(const Eigen::VectorXd& a, const Eigen::VectorXd
     s += t * t;
   }
   return signal_variance * std::exp(-0.5 * s);
+}
+
+double Matern52::of_distance(double d) const {
+  const double r = std::sqrt(5.0) * d / length_scale;
+  return signal_variance * (1.0 + r + r * r / 3.0) * std::exp(-r);
+}
+
+double Matern52::operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
+  check_size("Matern52: second input", a.size(), b.size());
+  return of_distance((a - b).norm());
 }
 
 }  // namespace drops::gp
