@@ -83,4 +83,44 @@ Eigen::VectorXd SquaredExpArd::gram_gradient(const Eigen::MatrixXd& X,
   return g;
 }
 
+double Matern52::of_distance(double d) const {
+  const double r = std::sqrt(5.0) * d / length_scale;
+  return signal_variance * (1.0 + r + r * r / 3.0) * std::exp(-r);
+}
+
+double Matern52::operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
+  check_size("Matern52: second input", a.size(), b.size());
+  if (dim > 0) check_size("Matern52: input", dim, a.size());
+  return of_distance((a - b).norm());
+}
+
+Eigen::VectorXd Matern52::h_params() const {
+  Eigen::VectorXd h(2);
+  h << std::log(length_scale), 0.5 * std::log(signal_variance);
+  return h;
+}
+
+void Matern52::set_h_params(const Eigen::VectorXd& h) {
+  check_size("Matern52::set_h_params: h", 2, h.size());
+  if (!h.allFinite()) throw InvalidArgument("Matern52::set_h_params: h is not finite");
+  length_scale = std::exp(h[0]);
+  signal_variance = std::exp(2.0 * h[1]);
+}
+
+Eigen::VectorXd Matern52::gram_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W) const {
+  check_size("Matern52::gram_gradient: W rows", X.rows(), W.rows());
+  check_size("Matern52::gram_gradient: W columns", X.rows(), W.cols());
+  // With r = sqrt(5) d / l: k = s (1 + r + r^2/3) e^-r, dk/dlog l = s (r^2 / 3)(1 + r) e^-r,
+  // dk/dlog sigma_f = 2 k.
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(2);
+  for (Eigen::Index i = 0; i < X.rows(); ++i)
+    for (Eigen::Index j = 0; j < X.rows(); ++j) {
+      const double r = std::sqrt(5.0) * (X.row(i) - X.row(j)).norm() / length_scale;
+      const double e = std::exp(-r);
+      g[0] += W(i, j) * signal_variance * (r * r / 3.0) * (1.0 + r) * e;
+      g[1] += W(i, j) * 2.0 * signal_variance * (1.0 + r + r * r / 3.0) * e;
+    }
+  return 0.5 * g;
+}
+
 }  // namespace drops::gp

@@ -1,6 +1,7 @@
 #pragma once
 /// \file Covariance functions behind one interface (limbo's hyper-parameter protocol: h_params() /
-/// set_h_params() in log space), and the squared-exponential ARD kernel of the paper (§IV-A).
+/// set_h_params() in log space): the squared-exponential ARD kernel of the paper (§IV-A) and the
+/// isotropic Matern 5/2 kernel of IT&E's M-BOA (drops/ite/mboa.hpp).
 
 #include <Eigen/Core>
 #include <memory>
@@ -63,6 +64,39 @@ struct SquaredExpArd final : Kernel {
   double variance() const override { return signal_variance; }
   double operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const override;
   Eigen::MatrixXd gram(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const override;
+  Eigen::VectorXd gram_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W) const override;
+};
+
+/// Isotropic Matern kernel with nu = 5/2 on the Euclidean distance d = |a - b|
+/// (Rasmussen & Williams 2006, eq. 4.17; Cully et al. 2015, Methods; baselines.md §3a):
+///   k(d) = sigma_f^2 (1 + sqrt(5) d / l + 5 d^2 / (3 l^2)) exp(-sqrt(5) d / l).
+/// k(0) = sigma_f^2, k(l) = 0.52399 sigma_f^2; twice differentiable in d (k'(0) = 0).
+/// Hyper-parameters h = [log l, log sigma_f] (dim 2). Value type; thread-safe for concurrent const
+/// use.
+struct Matern52 final : Kernel {
+  /// length_scale: l (> 0), in the units of the inputs (M-BOA: descriptor units, 0.4 there).
+  double length_scale = 1.0;
+  /// signal_variance: sigma_f^2 (> 0), in squared output units.
+  double signal_variance = 1.0;
+  /// D, the input dimension; 0 = any (operator() and of_distance accept inputs of any equal
+  /// size; a Gp needs D >= 1).
+  int dim = 0;
+
+  explicit Matern52(double length_scale = 1.0, double signal_variance = 1.0, int input_dim = 0)
+      : length_scale(length_scale), signal_variance(signal_variance), dim(input_dim) {}
+  /// k(d) for a distance d >= 0 (in the units of the inputs). Pure; no argument checks.
+  double of_distance(double d) const;
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<Matern52>(*this); }
+  std::string name() const override { return "matern52"; }
+  int input_dim() const override { return dim; }
+  int h_dim() const override { return 2; }
+  Eigen::VectorXd h_params() const override;
+  /// l = exp(h_0), sigma_f^2 = exp(2 h_1).
+  void set_h_params(const Eigen::VectorXd& h) override;
+  double variance() const override { return signal_variance; }
+  /// k(a, b) = of_distance(|a - b|_2); a, b: the same dim (and D when D > 0; InvalidArgument
+  /// otherwise).
+  double operator()(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const override;
   Eigen::VectorXd gram_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W) const override;
 };
 
