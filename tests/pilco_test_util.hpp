@@ -109,16 +109,27 @@ inline void ExpectWithinSe(const std::string& what, const MatrixXd& analytic, co
             << ", max |analytic - MC| = " << (analytic - mc).cwiseAbs().maxCoeff() << "\n";
 }
 
+// Derivative along a direction from a function of the step t: central differences of order 2
+// ((f(h) - f(-h)) / 2h, truncation O(h^2)) or 4 ((8 (f(h) - f(-h)) - (f(2h) - f(-2h))) / 12h,
+// truncation O(h^4), which allows a larger h and so less round-off for long computations).
+inline VectorXd CentralDifference(const std::function<VectorXd(double)>& f, double h, int order) {
+  if (order == 4) return (8.0 * (f(h) - f(-h)) - (f(2.0 * h) - f(-2.0 * h))) / (12.0 * h);
+  return (f(h) - f(-h)) / (2.0 * h);
+}
+
 // Central differences of f (returns a flat vector) at x along each coordinate, step h.
 inline MatrixXd FdJacobian(const std::function<VectorXd(const VectorXd&)>& f, const VectorXd& x,
-                           double h) {
+                           double h, int order = 2) {
   const VectorXd f0 = f(x);
   MatrixXd J(f0.size(), x.size());
   for (int k = 0; k < x.size(); ++k) {
-    VectorXd xp = x, xm = x;
-    xp[k] += h;
-    xm[k] -= h;
-    J.col(k) = (f(xp) - f(xm)) / (2.0 * h);
+    J.col(k) = CentralDifference(
+        [&](double t) {
+          VectorXd xt = x;
+          xt[k] += t;
+          return f(xt);
+        },
+        h, order);
   }
   return J;
 }
@@ -127,20 +138,20 @@ inline MatrixXd FdJacobian(const std::function<VectorXd(const VectorXd&)>& f, co
 // k + D l is half the derivative along the symmetric perturbation E_kl + E_lk for k != l (so the
 // columns (k, l) and (l, k) are equal and sum to it), and the derivative along E_kk for k = l.
 inline MatrixXd FdJacobianSym(const std::function<VectorXd(const MatrixXd&)>& f, const MatrixXd& S,
-                              double h) {
+                              double h, int order = 2) {
   const int D = static_cast<int>(S.rows());
   const VectorXd f0 = f(S);
   MatrixXd J(f0.size(), D * D);
   for (int l = 0; l < D; ++l) {
     for (int k = 0; k <= l; ++k) {
-      MatrixXd Sp = S, Sm = S;
-      Sp(k, l) += h;
-      Sm(k, l) -= h;
-      if (k != l) {
-        Sp(l, k) += h;
-        Sm(l, k) -= h;
-      }
-      VectorXd d = (f(Sp) - f(Sm)) / (2.0 * h);
+      VectorXd d = CentralDifference(
+          [&](double t) {
+            MatrixXd St = S;
+            St(k, l) += t;
+            if (k != l) St(l, k) += t;
+            return f(St);
+          },
+          h, order);
       if (k != l) d *= 0.5;
       J.col(k + D * l) = d;
       J.col(l + D * k) = d;
