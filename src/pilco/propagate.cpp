@@ -47,9 +47,9 @@ struct JointGaussian {
   }
 
   // Appends y = f(z[idx]) whose moments (computed from sub_mean(idx), sub_cov(idx)) are `b`, with
-  // Cov[z, y] = S[:, idx] b.cross. theta_offset >= 0: the seed column where b's parameter
-  // derivatives start.
-  void append(const std::vector<int>& idx, const Moments& b, Index theta_offset) {
+  // Cov[z, y] = S[:, idx] b.cross. output_seeds >= 0: b's own moments (mean q, cov q^2, cross p q)
+  // are also seed variables, at columns output_seeds.. (how the policy parameters enter: see step).
+  void append(const std::vector<int>& idx, const Moments& b, Index output_seeds) {
     const Index n = size(), p = static_cast<Index>(idx.size()), q = b.mean.size();
     const Index n2 = n + q, K = seeds();
     MatrixXd Si(n, p);
@@ -72,11 +72,10 @@ struct JointGaussian {
       MatrixXd dM = b.dmean_dmu * dmi + b.dmean_dsigma * dSi;
       MatrixXd dC = b.dcross_dmu * dmi + b.dcross_dsigma * dSi;
       MatrixXd dSkk = b.dcov_dmu * dmi + b.dcov_dsigma * dSi;
-      if (theta_offset >= 0 && b.dmean_dtheta.size() > 0) {
-        const Index P = b.dmean_dtheta.cols();
-        dM.middleCols(theta_offset, P) += b.dmean_dtheta;
-        dC.middleCols(theta_offset, P) += b.dcross_dtheta;
-        dSkk.middleCols(theta_offset, P) += b.dcov_dtheta;
+      if (output_seeds >= 0) {
+        dM.middleCols(output_seeds, q).diagonal().array() += 1.0;
+        dSkk.middleCols(output_seeds + q, q * q).diagonal().array() += 1.0;
+        dC.middleCols(output_seeds + q + q * q, p * q).diagonal().array() += 1.0;
       }
       MatrixXd dm2(n2, K);
       dm2.topRows(n) = dm;
@@ -155,16 +154,31 @@ void augment(const PropagationConfig& c, bool derivs, JointGaussian& j) {
   j.append(x, trig_moments(c.angles, j.sub_mean(x), j.sub_cov(x), derivs), -1);
 }
 
+// Number of scalars in the policy block's moments (mean U, cov U^2, cross |policy_inputs| U).
+Index policy_outputs(const PropagationConfig& c) {
+  const Index U = c.control_dim();
+  return U + U * U + static_cast<Index>(c.policy_inputs.size()) * U;
+}
+
 // The blocks of one step on a joint that holds the state only; leaves the next state, and the
-// joint before the final map in `joint_mean`, `joint_cov`.
+// joint before the final map in `joint_mean`, `joint_cov`. With policy_seeds >= 0, the policy
+// block's moments are seed variables at columns policy_seeds.. (policy_outputs(c) of them) and
+// `policy_jacobian` receives their derivatives with respect to theta (rows [mean | cov | cross]).
+// theta enters the step only through that block, so d(anything)/dtheta = d(anything)/d(policy
+// moments) * policy_jacobian: 28 seed columns for the pendubot instead of its 1406 parameters.
 void step(const PropagationConfig& c, const SeModel& dynamics, const RbfPolicy& policy,
-          Index theta_offset, JointGaussian& j, VectorXd& joint_mean, MatrixXd& joint_cov) {
+          Index policy_seeds, JointGaussian& j, VectorXd& joint_mean, MatrixXd& joint_cov,
+          MatrixXd* policy_jacobian) {
   const bool derivs = j.seeds() > 0;
   const Index D = c.state_dim, A = static_cast<Index>(c.angles.size()), U = c.control_dim();
   augment(c, derivs, j);
   const Moments pm = policy.moments(j.sub_mean(c.policy_inputs), j.sub_cov(c.policy_inputs), derivs,
-                                    derivs && theta_offset >= 0);
-  j.append(c.policy_inputs, pm, theta_offset);
+                                    derivs && policy_seeds >= 0);
+  j.append(c.policy_inputs, pm, policy_seeds);
+  if (policy_seeds >= 0 && policy_jacobian != nullptr) {
+    policy_jacobian->resize(policy_outputs(c), pm.dmean_dtheta.cols());
+    *policy_jacobian << pm.dmean_dtheta, pm.dcov_dtheta, pm.dcross_dtheta;
+  }
   const std::vector<int> ut = range(D + 2 * A, U);
   j.append(ut, squash_moments(c.max_u, j.sub_mean(ut), j.sub_cov(ut), derivs), -1);
   std::vector<int> gin = c.dynamics_inputs;
@@ -234,15 +248,17 @@ StepMoments propagate(const PropagationConfig& config, const SeModel& dynamics,
   StepMoments out;
   if (derivatives == StepDerivatives::kNone) {
     JointGaussian j{mu, sigma, MatrixXd(D, 0), MatrixXd(D * D, 0)};
-    step(config, dynamics, policy, -1, j, out.joint_mean, out.joint_cov);
+    step(config, dynamics, policy, -1, j, out.joint_mean, out.joint_cov, nullptr);
     out.mean = j.m;
     out.cov = j.S;
     return out;
   }
   const bool with_policy = derivatives == StepDerivatives::kStateAndPolicy;
-  const Index P = with_policy ? policy.num_params() : 0;
-  JointGaussian j = seeded(mu, sigma, P);
-  step(config, dynamics, policy, with_policy ? D + D * D : -1, j, out.joint_mean, out.joint_cov);
+  const Index F = with_policy ? policy_outputs(config) : 0;
+  JointGaussian j = seeded(mu, sigma, F);
+  MatrixXd policy_jacobian;
+  step(config, dynamics, policy, with_policy ? D + D * D : -1, j, out.joint_mean, out.joint_cov,
+       &policy_jacobian);
   out.mean = j.m;
   out.cov = j.S;
   out.dmean_dmu = j.dm.leftCols(D);
@@ -250,8 +266,8 @@ StepMoments propagate(const PropagationConfig& config, const SeModel& dynamics,
   out.dcov_dmu = j.dS.leftCols(D);
   out.dcov_dsigma = j.dS.middleCols(D, D * D);
   if (with_policy) {
-    out.dmean_dtheta = j.dm.rightCols(P);
-    out.dcov_dtheta = j.dS.rightCols(P);
+    out.dmean_dtheta = j.dm.rightCols(F) * policy_jacobian;
+    out.dcov_dtheta = j.dS.rightCols(F) * policy_jacobian;
   }
   return out;
 }

@@ -142,27 +142,38 @@ Moments RbfPolicy::moments(const Eigen::VectorXd& mu, const Eigen::MatrixXd& sig
     const VectorXd beta = beta_.col(a);
     const VectorXd lam = (-2.0 * log_length_scales_.col(a)).array().exp();
     const MatrixXd& K = k_[a];
+    // For each row f with h = H.col(f), G = (h beta^T + beta h^T) o K (never formed, K symmetric):
+    //   G 1 = h o K beta + beta o K h,   G C = h o K (beta o C) + beta o K (h o C).
+    // dK_ij/dc_i = -K_ij Lambda^-1 (c_i - c_j) makes -h^T dK beta over centre k equal to
+    // Lambda^-1 ((G 1)_k c_k - (G C)_k); dK_ij/dlog l_k = K_ij (c_ik - c_jk)^2 / l_k^2 makes
+    // -h^T dK beta over log l_k equal to -(sum_i ((h o K beta)_i + (beta o K h)_i) c_ik^2 -
+    // 2 (h o c_k)^T K (beta o c_k)) / l_k^2.
+    const VectorXd Kb = K * beta;
+    const MatrixXd bC = centres_.array().colwise() * beta.array();
+    const MatrixXd KbC = K * bC;
+    const MatrixXd KH = K * H;
+    MatrixXd HC(n, d * F);  // block f: h_f o C
+    for (Index f = 0; f < F; ++f) {
+      HC.middleCols(d * f, d) = centres_.array().colwise() * H.col(f).array();
+    }
+    const MatrixXd KHC = K * HC;
+    const MatrixXd C2 = centres_.array().square();
     for (Index f = 0; f < F; ++f) {
       if (g.d_weights.row(f).isZero(0.0)) continue;
-      const VectorXd h = H.col(f);
-      // dK_ij/dc_i = -K_ij Lambda^-1 (c_i - c_j): -h^T dK beta over centre k is
-      // Lambda^-1 (s_k c_k - (G C)_k) with G = (h beta^T + beta h^T) o K, s = G 1.
-      const MatrixXd G = (h * beta.transpose() + beta * h.transpose()).cwiseProduct(K);
-      const VectorXd s = G.rowwise().sum();
-      const MatrixXd dC =
-          ((centres_.array().colwise() * s.array() - (G * centres_).array()).rowwise() *
-           lam.transpose().array())
-              .matrix();
+      const auto h = H.col(f);
+      const auto Kh = KH.col(f);
+      const VectorXd rs = h.cwiseProduct(Kb);     // (h beta^T o K) 1
+      const VectorXd cs = beta.cwiseProduct(Kh);  // (h beta^T o K)^T 1
+      const VectorXd s = rs + cs;                 // G 1
+      const MatrixXd GC = (KbC.array().colwise() * h.array() +
+                           KHC.middleCols(d * f, d).array().colwise() * beta.array())
+                              .matrix();
+      const MatrixXd dC = ((centres_.array().colwise() * s.array() - GC.array()).rowwise() *
+                           lam.transpose().array())
+                              .matrix();
       J.row(f).head(n * d) += detail::as_row(dC);
-      // dK_ij/dlog l_k = K_ij (c_ik - c_jk)^2 / l_k^2.
-      const MatrixXd Hm = (h * beta.transpose()).cwiseProduct(K);
-      const VectorXd rh = Hm.rowwise().sum();
-      const VectorXd ch = Hm.colwise().sum().transpose();
-      const MatrixXd HmC = Hm * centres_;
       for (Index k = 0; k < d; ++k) {
-        const double v = (rh.array() * centres_.col(k).array().square()).sum() +
-                         (ch.array() * centres_.col(k).array().square()).sum() -
-                         2.0 * centres_.col(k).dot(HmC.col(k));
+        const double v = C2.col(k).dot(s) - 2.0 * HC.col(d * f + k).dot(KbC.col(k));
         J(f, off_l + d * a + k) -= lam[k] * v;
       }
     }

@@ -109,15 +109,21 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
       A.logk.array() - 0.25 * f.logdet + 0.5 * (A.y.array() * AT.array()).rowwise().sum();
   const VectorXd lB =
       B.logk.array() - 0.25 * f.logdet + 0.5 * (B.y.array() * BT.array()).rowwise().sum();
-  MatrixXd Q(nA, nB);
+  // Q and W are n x n (250 x 250 for the pendubot): per-thread buffers reused across pairs and
+  // calls, since allocating them for every pair (and faulting their pages in) cost more than the
+  // arithmetic.
+  thread_local MatrixXd Q, W;
+  Q.resize(nA, nB);
   Q.noalias() = AT * B.y.transpose();
   Q.colwise() += lA;
   Q.rowwise() += lB.transpose();
-  Q = Q.array().exp().matrix();
+  Q.array() = Q.array().exp();
 
   const VectorXd& wA = A.block->weights;
   const VectorXd& wB = B.block->weights;
-  MatrixXd W = (mult * (wA * wB.transpose())).cwiseProduct(Q);
+  W.resize(nA, nB);
+  W.array() = Q.array().colwise() * (mult * wA).array();
+  W.array().rowwise() *= wB.transpose().array();
   if (variance) {
     W -= A.block->k_inverse.cwiseProduct(Q);
     out.cov(a, a) += A.block->signal_variance;
