@@ -113,11 +113,14 @@ class ExpectedCost {
 
   /// P, the policy's number of parameters.
   int num_params() const { return policy_.num_params(); }
+  /// H, the number of predicted steps.
   int horizon() const { return horizon_; }
 
   /// J(theta) (theta: dim P); if gradient != nullptr, also dJ/dtheta (resized to P).
   /// Errors: RbfPolicy::set_params, propagate. Cost per step O(E^2 N^2 D) for the GP moments, plus
-  /// with the gradient the input derivatives of every block and O(n^2 d) per policy output scalar.
+  /// with the gradient the input derivatives of every block and O(n^2 d) per policy output scalar:
+  /// about 0.23 s (J) and 0.31 s (J and gradient) for the pendubot sizes (D = 7, E = 4, N = 250,
+  /// 200 centres, H = 50; bench/bench_pilco.cpp, one core).
   double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd* gradient = nullptr) const;
 
   /// The state distributions and expected costs along the horizon (no gradient).
