@@ -420,4 +420,18 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
 
 const Eigen::VectorXd& Gp::alpha() const { return alpha_; }
 
+const Eigen::MatrixXd& Gp::training_inputs() const { return X_; }
+
+Eigen::MatrixXd Gp::inverse_covariance() const {
+  const Index n = X_.rows();
+  if (n == 0) return MatrixXd(0, 0);
+  // K^-1 = L^-T L^-1 from the triangular inverse, as in log_marginal_likelihood_gradient().
+  MatrixXd Linv = L_.triangularView<Eigen::Lower>();
+  invert_lower(Linv);
+  MatrixXd Kinv = MatrixXd::Zero(n, n);
+  Kinv.selfadjointView<Eigen::Lower>().rankUpdate(Linv.transpose(), 1.0);
+  Kinv.triangularView<Eigen::StrictlyUpper>() = Kinv.transpose();
+  return Kinv;
+}
+
 }  // namespace drops::gp

@@ -142,6 +142,16 @@ class Gp {
   /// alpha = K^-1 y (dim N).
   const Eigen::VectorXd& alpha() const;
 
+  /// Training inputs X (N x D, one input per row) as last given to compute(); 0 x D before.
+  /// Used by moment matching under uncertain inputs (drops::pilco). Thread-safe (const).
+  const Eigen::MatrixXd& training_inputs() const;
+  /// (K + sigma_n^2 I + jitter I)^-1 (N x N, symmetric): the inverse of the matrix that alpha was
+  /// solved with (jitter: see compute(), usually 0). Computed from the Cholesky factor on each call
+  /// (O(N^3), nothing cached, the GP is not modified); 0 x 0 when N = 0. Used by PILCO's moment
+  /// matching (the alpha_a^2 - tr(K^-1 Q) term of the predictive variance, Deisenroth 2010, gp0.m).
+  /// Thread-safe (const).
+  Eigen::MatrixXd inverse_covariance() const;
+
  private:
   // Implementation state (see src/gp/gp.cpp). Invariant after construction / compute(): every
   // member below is consistent with (kernel_, log_sigma_n_, X_, y_); a throwing call leaves it intact.
