@@ -221,7 +221,7 @@ TEST(PilcoGpMoments, PriorWithZeroRealDataIsTheSimulatorMeanPlusPriorVariance) {
     h[D + 1] = std::log(0.1);
     gp.set_h_params(h);
     gp.compute(MatrixXd(0, D), VectorXd(0));
-    alpha2[a] = gp.kernel().signal_variance;
+    alpha2[a] = gp.kernel().variance();
     empty.push_back(std::move(gp));
   }
   const SeModel model = drops::pilco::gp_model_with_prior_mean(prior, empty);

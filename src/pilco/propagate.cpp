@@ -165,7 +165,7 @@ Index policy_outputs(const PropagationConfig& c) {
 // block's moments are seed variables at columns policy_seeds.. (policy_outputs(c) of them) and
 // `policy_jacobian` receives their derivatives with respect to theta (rows [mean | cov | cross]).
 // theta enters the step only through that block, so d(anything)/dtheta = d(anything)/d(policy
-// moments) * policy_jacobian: 8 seed columns for the pendubot instead of its 1406 parameters.
+// moments) * policy_jacobian: 8 seed columns instead of 1406 parameters (paper §V-A's swing-up).
 void step(const PropagationConfig& c, const SeModel& dynamics, const RbfPolicy& policy,
           Index policy_seeds, JointGaussian& j, VectorXd& joint_mean, MatrixXd& joint_cov,
           MatrixXd* policy_jacobian) {

@@ -109,7 +109,7 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
       A.logk.array() - 0.25 * f.logdet + 0.5 * (A.y.array() * AT.array()).rowwise().sum();
   const VectorXd lB =
       B.logk.array() - 0.25 * f.logdet + 0.5 * (B.y.array() * BT.array()).rowwise().sum();
-  // Q and W are n x n (250 x 250 for the pendubot): per-thread buffers reused across pairs and
+  // Q and W are n x n (250 x 250 for the swing-up of paper §V-A): per-thread buffers reused across pairs and
   // calls, since allocating them for every pair (and faulting their pages in) cost more than the
   // arithmetic.
   thread_local MatrixXd Q, W;
@@ -234,8 +234,12 @@ SeBlock gp_mean_block(const gp::Gp& gp) {
   b.centres = gp.training_inputs();
   if (b.centres.cols() != gp.input_dim()) b.centres.resize(0, gp.input_dim());
   b.weights = gp.size() > 0 ? gp.alpha() : VectorXd(0);
-  b.length_scales = gp.kernel().length_scales;
-  b.signal_variance = gp.kernel().signal_variance;
+  const auto* se = dynamic_cast<const gp::SquaredExpArd*>(&gp.kernel());
+  if (!se)
+    throw InvalidArgument("pilco: moment matching needs GPs with the SE-ARD kernel, got '" +
+                          gp.kernel().name() + "'");
+  b.length_scales = se->length_scales;
+  b.signal_variance = se->signal_variance;
   return b;
 }
 

@@ -6,7 +6,7 @@
 
 namespace drops::pilco {
 
-/// c(x) = 1 - exp(-1/2 (x - z)^T W (x - z)), in [0, 1). For the pendubot, x is the augmented state
+/// c(x) = 1 - exp(-1/2 (x - z)^T W (x - z)), in [0, 1). For the swing-up of paper §V-A, x is the augmented state
 /// [x, sin/cos of the angles] and W = C^T C / width^2 measures the squared tip distance
 /// (baselines.md §1a "Saturating cost"). Value type.
 struct SaturatingCost {

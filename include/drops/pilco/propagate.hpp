@@ -18,7 +18,7 @@ namespace drops::pilco {
 /// vector is x_aug = [x (D), sin x_i1, cos x_i1, sin x_i2, cos x_i2, ...] (D + 2 |angles|), the
 /// policy sees x_aug[policy_inputs], the GP sees [x_aug[dynamics_inputs], u] with u the squashed
 /// control, and its E = D outputs are the state differences: x' = x + Delta (PILCO's difi = all).
-/// Pendubot (baselines.md §1a, x = [dtheta1, dtheta2, theta1, theta2]): angles {2, 3},
+/// The swing-up of paper §V-A (baselines.md §1a, x = [dtheta1, dtheta2, theta1, theta2]): angles {2, 3},
 /// policy_inputs = dynamics_inputs = {0, 1, 4, 5, 6, 7}, max_u = [3.5].
 struct PropagationConfig {
   int state_dim = 0;                 ///< D >= 1
@@ -80,7 +80,7 @@ StepMoments propagate(const PropagationConfig& config, const SeModel& dynamics,
 /// E[c(x_aug)] of the state x ~ N(mu, Sigma) (dim D), x_aug being its trig augmentation
 /// (config.angles; cost.weight is augmented_dim() square), with derivatives with respect to the
 /// state moments: dmean_dmu (D), dmean_dsigma (D x D, convention of Moments). PILCO's loss
-/// functions do this augmentation themselves (loss_pendubot.m). Thread-safe.
+/// functions do this augmentation themselves (PILCO's loss functions). Thread-safe.
 CostMoments state_cost(const PropagationConfig& config, const SaturatingCost& cost,
                        const Eigen::VectorXd& mu, const Eigen::MatrixXd& sigma,
                        bool derivatives = false);
@@ -119,7 +119,7 @@ class ExpectedCost {
   /// J(theta) (theta: dim P); if gradient != nullptr, also dJ/dtheta (resized to P).
   /// Errors: RbfPolicy::set_params, propagate. Cost per step O(E^2 N^2 D) for the GP moments, plus
   /// with the gradient the input derivatives of every block and O(n^2 d) per policy output scalar:
-  /// about 0.23 s (J) and 0.31 s (J and gradient) for the pendubot sizes (D = 7, E = 4, N = 250,
+  /// about 0.23 s (J) and 0.31 s (J and gradient) for the sizes of paper §V-A's swing-up (D = 7, E = 4, N = 250,
   /// 200 centres, H = 50; bench/bench_pilco.cpp, one core).
   double operator()(const Eigen::VectorXd& theta, Eigen::VectorXd* gradient = nullptr) const;
 

@@ -24,7 +24,7 @@ namespace drops::pilco {
 ///   vec(targets)           n x E: target of centre i for output a at n d + i + n a;
 ///   vec(log_length_scales) d x E: log l_a,k at n d + n E + k + d a.
 /// PILCO also stores log alpha and log sigma_n in its hyper-parameters but zeroes their gradients
-/// (1408 = 1200 + 200 + 8 for the pendubot); here they are constants (P = 1406).
+/// (1408 = 1200 + 200 + 8 for paper §V-A's swing-up); here they are constants (P = 1406).
 ///
 /// Usage: construct, set_params(theta) or set(), then action() or moments(). Every const member is
 /// thread-safe; set/set_params are not (one policy per thread when parameters differ).
