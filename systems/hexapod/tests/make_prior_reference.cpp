@@ -1,5 +1,5 @@
-// Writes the reference trajectories of test_hexapod_prior_reference.cpp to stdout (issue 14, item 1:
-// the prior's trajectories must stay what they were before the prior was made faster).
+// Writes the reference trajectories of test_hexapod_prior_reference.cpp to stdout (issue 14, item
+// 1: the prior's trajectories must stay what they were before the prior was made faster).
 //
 //   build/systems/hexapod/make_prior_reference > systems/hexapod/tests/data/prior_reference.txt
 //
@@ -10,8 +10,9 @@
 //                               x_{t+1} = x_t + HexapodPrior::evaluate(x_t, u_t; phi) with
 //                               u_t = the gait's targets at t * 0.1 s (the path of a prior-only
 //                               model rollout, set_state every step);
-//   sim <name> <phi> 41 48      PriorSimulator: reset(), then step(u_t) 40 times, state() after each;
-//   onestep <phi> 80 48         HexapodPrior::evaluate(x_t, u_t; phi) at the 80 transitions of two
+//   sim <name> <phi> 41 48      PriorSimulator: reset(), then step(u_t) 40 times, state() after
+//   each; onestep <phi> 80 48         HexapodPrior::evaluate(x_t, u_t; phi) at the 80 transitions
+//   of two
 //                               gentle-gait episodes of the default "real" robot (noisy measured
 //                               states: off-trajectory velocities, contacts, tilts);
 //   real <name> <leg> 41 48     HexapodRealSystem (servos, 1 ms) episodes without noise.
