@@ -1,13 +1,14 @@
 // One batch of hexapod model rollouts, for profilers (issue 14: where a model rollout's time goes).
 //
-//   hexapod_rollout_profile N EVALUATIONS [THREADS]
+//   hexapod_rollout_profile N EVALUATIONS [THREADS [RPROP_ITERATIONS]]
 //
 // N = 0: the prior alone (make_prior_only_model, intact robot); N > 0: a gp_prior model (intact
-// prior, the kernels fitted with 20 Rprop iterations: the cost of a prediction does not depend on
-// the hyper-parameters) on the first N transitions of the "real" robot's episodes (as
-// bench_hexapod). Then EVALUATIONS policies (uniform theta in [-0.5, 0.5]^36, fixed seeds) are
-// evaluated with one 40-step rollout each through rollout::evaluate_policies, in one call, as a
-// CMA-ES generation is. Under valgrind only that call is instrumented:
+// prior, the kernels fitted with RPROP_ITERATIONS (default 20) Rprop iterations: the cost of a
+// prediction does not depend on the hyper-parameters, and 1 iteration keeps valgrind's run short)
+// on the first N transitions of the "real" robot's episodes (as bench_hexapod). Then EVALUATIONS
+// policies (uniform theta in [-0.5, 0.5]^36, fixed seeds) are evaluated with one 40-step rollout
+// each through rollout::evaluate_policies, in one call, as a CMA-ES generation is. Under valgrind
+// only that call is instrumented:
 //
 //   valgrind --tool=callgrind --instr-atstart=no build/bench/hexapod_rollout_profile 40 16 1
 //
@@ -38,7 +39,8 @@ using namespace drops;
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: hexapod_rollout_profile N EVALUATIONS [THREADS]\n");
+    std::fprintf(stderr,
+                 "usage: hexapod_rollout_profile N EVALUATIONS [THREADS [RPROP_ITERATIONS]]\n");
     return 2;
   }
   const int n = std::atoi(argv[1]);
@@ -67,7 +69,7 @@ int main(int argc, char** argv) {
     }
     model::ModelOptions o;
     o.type = model::ModelType::kGpPrior;
-    o.rprop.max_iterations = 20;
+    o.rprop.max_iterations = argc > 4 ? std::atoi(argv[4]) : 20;
     model = model::make_model(o, task, prior, hexapod::HexapodPrior::prior_parameters());
     model->learn(data);
   }
