@@ -141,8 +141,10 @@ void RigidRobotContactSolver::solveConstrainedGroup(dart::constraint::Constraine
 
   // A = V M V^T (G M^-1 G^T), with DART's constraint force mixing on the diagonal.
   const Eigen::Matrix6d& m = root->getArticulatedInertia();
-  vm_.noalias() = v_ * m;
-  a_.noalias() = vm_ * v_.transpose();
+  // Coefficient-based products (no BLAS call for these small sizes; the same on every CPU).
+  vm_.noalias() = v_.lazyProduct(m);
+  a_.resize(rows, rows);
+  a_.triangularView<Eigen::Upper>() = vm_.lazyProduct(v_.transpose());
   const double cfm = dart::constraint::ContactConstraint::getConstraintForceMixing();
   for (Eigen::Index i = 0; i < rows; ++i) {
     for (Eigen::Index j = 0; j < i; ++j) mA(i, j) = mA(j, i) = a_(j, i);  // exactly symmetric

@@ -51,6 +51,9 @@ class GroundContactFilter final : public dart::collision::CollisionFilter {
   /// outlive the filter's use. A shape of another skeleton is always tested (no height test).
   GroundContactFilter(const dart::dynamics::ShapeFrame* ground,
                       const dart::dynamics::Skeleton& robot, double ground_top);
+  /// True (skip the pair) unless exactly one of the two is the ground and the other's bounding
+  /// sphere reaches z = ground_top + 1e-6 m in its current pose (any height for a shape not of
+  /// `robot`). Called by DART's detector for every pair of its collision group.
   bool ignoresCollision(const dart::collision::CollisionObject* object1,
                         const dart::collision::CollisionObject* object2) const override;
 
@@ -62,17 +65,22 @@ class GroundContactFilter final : public dart::collision::CollisionFilter {
 };
 
 /// DART's BoxedLcpConstraintSolver (Dantzig, PGS fallback) with the LCP matrix of a rigid robot
-/// built from six root impulses; see the file comment. Not thread-safe (one per world).
+/// built from six root impulses; see the file comment. Assumes the contacts have no slip
+/// compliance (DART's default; the hexapod's shapes set none): DART adds it to the friction rows'
+/// diagonal, this path does not. Valid for a world with one mobile skeleton (checked at every
+/// solve; otherwise DART's algorithm). Install with World::setConstraintSolver before setting the
+/// collision detector (make_world does). Not thread-safe (one per world).
 class RigidRobotContactSolver final : public dart::constraint::BoxedLcpConstraintSolver {
  public:
-  /// Number of constrained groups solved by the rigid-robot path and by DART's own algorithm
-  /// since construction (for tests).
+  /// Number of constrained groups solved by the rigid-robot path since construction (for tests).
   long rigid_groups() const { return rigid_groups_; }
+  /// Number of constrained groups solved by DART's own algorithm since construction.
   long generic_groups() const { return generic_groups_; }
   /// false: every group goes through DART's own algorithm (tests compare the two paths).
   void set_rigid_enabled(bool enabled) { rigid_enabled_ = enabled; }
 
  protected:
+  /// Builds and solves the LCP of `group` and applies its impulses, as DART's does (see the class).
   void solveConstrainedGroup(dart::constraint::ConstrainedGroup& group) override;
 
  private:

@@ -9,12 +9,12 @@
 // - the body's pose and velocities change at round-off in each step where the LCP matrix of the
 //   rigid robot is built (the same products in another order), and contact dynamics amplify it:
 //   after 40 steps the largest deviation was 1.4e-9 m in position, 9.5e-9 rad in orientation and
-//   4.7e-8 m/s or rad/s in velocity (the intact tripod gait). Asserted: 1e-6 m and rad, 1e-5 m/s
-//   and rad/s, and a walking speed within 1e-6 m/s: margins of about 100 over what was measured,
-//   for other compilers, and still far below anything physical;
+//   4.1e-8 m/s or rad/s in velocity (the intact tripod gait), and the walking speeds agreed
+//   within 3.6e-10 m/s. Asserted: 1e-6 m and rad, 1e-5 m/s and rad/s, and a walking
+//   speed within 1e-6 m/s: margins of about 100 over what was measured, for other compilers and
+//   CPUs, and still far below anything physical;
 // - one step from a recorded state: at most 5.4e-15; asserted 1e-12;
-// - the "real" robot (servos: DART's own contact path, with the new collision filter):
-// bit-identical.
+// - the "real" robot (servos: DART's own contact path, with the new filter): bit-identical.
 #include <gtest/gtest.h>
 
 #include <dart/simulation/World.hpp>
