@@ -66,7 +66,7 @@ bool RigidRobotContactSolver::rigid(dart::constraint::ConstrainedGroup& group,
       return false;
     }
   }
-  if (!skel || skel->getNumJoints() < 1) return false;
+  if (!skel || skel->getNumTrees() != 1 || skel->getNumJoints() < 1) return false;
   const dart::dynamics::Joint* root_joint = skel->getJoint(0);
   if (root_joint->getNumDofs() != 6 || root_joint->isKinematic() ||
       skel->getRootBodyNode() == nullptr) {
