@@ -40,7 +40,8 @@ struct WorldOptions {
 /// steps, so a step is a function of the current state alone) with GroundContactFilter (the
 /// ground against every robot shape; the robot does not collide with itself, as DART's default
 /// filter without self-collision) and RigidRobotContactSolver (DART's boxed-LCP solver, with a
-/// cheaper LCP matrix while every joint but the root is kinematic; contact_solver.hpp).
+/// cheaper LCP matrix while every joint but the root is kinematic; contact_solver.hpp). Skeletons
+/// added to the world later collide with the ground only, not with the robot or each other.
 /// The effective contact friction is DART's combination of the two shapes' coefficients.
 /// Throws InvalidArgument when options are invalid or robot is null. Thread-safe.
 dart::simulation::WorldPtr make_world(const dart::dynamics::SkeletonPtr& robot,
