@@ -12,6 +12,12 @@
 //   BM_PriorOnlyPolicyOptimization
 //                             the same policy optimization on the prior alone (intact robot,
 //                             deterministic): Algorithm 1's first episode
+//   BM_PolicyEvaluations/N/T  rollout throughput (issue 14): kGenerations CMA-ES-sized batches of
+//                             14 policies (lambda of 36 parameters), 1 rollout of H = 40 each,
+//                             through rollout::evaluate_policies on the model learned on N
+//                             transitions (N = 0: the prior alone, intact robot), T threads;
+//                             evals_per_s. The policies are uniform in [-0.5, 0.5]^36 (the box a
+//                             large BIPOP run samples) from fixed seeds, the same every run.
 // Data: N = 40 transitions per episode of the intact "real" robot (HexapodRealSystem with its
 // default noise), episode 0 a tripod gait, the next ones uniform random theta in [-0.5, 0.5]^36
 // (fixed seeds). Threads: all hardware threads (2 on the reference machine) except where T says.
@@ -126,8 +132,8 @@ void optimize_on(benchmark::State& state, const model::DynamicsModel& model) {
   o.rollouts.rollouts = 1;
   long evaluations = 0, nonfinite = 0;
   for (auto _ : state) {
-    const auto s = algo::optimize_policy(task, model, policy, VectorXd::Zero(36), o, 123, nullptr,
-                                         &nonfinite);
+    const auto s =
+        algo::optimize_policy(task, model, policy, VectorXd::Zero(36), o, 123, nullptr, &nonfinite);
     evaluations += s.search.evaluations;
     state.counters["predicted_return"] = s.value;
   }
@@ -164,6 +170,68 @@ void BM_PriorOnlyPolicyOptimization(benchmark::State& state) {
   optimize_on(state, *model);
 }
 BENCHMARK(BM_PriorOnlyPolicyOptimization)->UseRealTime()->Iterations(1)->Unit(benchmark::kSecond);
+
+constexpr int kGenerations = 10;
+constexpr int kLambda = 14;  // 4 + floor(3 ln 36)
+
+void BM_PolicyEvaluations(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const ThreadLimit limit(static_cast<int>(state.range(1)));
+  std::unique_ptr<model::DynamicsModel> prior_only;
+  const model::DynamicsModel* model = nullptr;
+  if (n == 0) {
+    prior_only = model::make_prior_only_model(std::make_shared<hexapod::HexapodPrior>(),
+                                              hexapod::HexapodPrior::prior_parameters());
+    model = prior_only.get();
+  } else {
+    auto& learned = learned_models()[n];
+    if (!learned) {
+      learned = make_hexapod_model(run_model_options());
+      learned->learn(real_data(n));
+    }
+    model = learned.get();
+  }
+  const hexapod::HexapodTask task;
+  const hexapod::HexapodGaitPolicy policy;
+  std::vector<std::vector<VectorXd>> thetas(kGenerations);
+  std::vector<std::vector<std::uint64_t>> seeds(kGenerations);
+  Rng rng(2024);
+  for (int g = 0; g < kGenerations; ++g) {
+    for (int k = 0; k < kLambda; ++k) {
+      VectorXd theta(36);
+      for (int i = 0; i < 36; ++i) theta[i] = rng.uniform(-0.5, 0.5);
+      thetas[g].push_back(theta);
+      seeds[g].push_back(
+          derive_seed(7, {static_cast<std::uint64_t>(g), static_cast<std::uint64_t>(k)}));
+    }
+  }
+  rollout::RolloutOptions ro;
+  ro.sample = n > 0;
+  long evaluations = 0;
+  double sum = 0;
+  rollout::RolloutStats stats;
+  VectorXd returns;
+  for (auto _ : state) {
+    for (int g = 0; g < kGenerations; ++g) {
+      rollout::evaluate_policies(task, *model, policy, thetas[g], seeds[g], ro, returns, &stats);
+      evaluations += kLambda;
+      sum += returns.sum();
+    }
+  }
+  state.counters["mean_return"] = sum / static_cast<double>(evaluations);
+  state.counters["stopped"] = static_cast<double>(stats.nonfinite_steps);
+  state.counters["evals_per_s"] =
+      benchmark::Counter(static_cast<double>(evaluations), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_PolicyEvaluations)
+    ->Args({0, 2})
+    ->Args({40, 2})
+    ->Args({400, 2})
+    ->Args({0, 1})
+    ->Args({40, 1})
+    ->UseRealTime()
+    ->MinTime(5.0)
+    ->Unit(benchmark::kSecond);
 
 void BM_ModelStep(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

@@ -4,6 +4,7 @@
 #include "hexapod/robot.hpp"
 
 #include <cmath>
+#include <memory>
 #include <dart/collision/dart/DARTCollisionDetector.hpp>
 #include <dart/constraint/ConstraintSolver.hpp>
 #include <dart/dynamics/BodyNode.hpp>
@@ -16,6 +17,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "hexapod/contact_solver.hpp"
 #include "hexapod/robot_dart.hpp"
 
 namespace drops::hexapod {
@@ -277,17 +279,23 @@ dart::simulation::WorldPtr make_world(const dart::dynamics::SkeletonPtr& robot,
   gp.mName = kGroundName;
   BodyNode* ground_body =
       ground->createJointAndBodyNodePair<dart::dynamics::WeldJoint>(nullptr, wp, gp).second;
-  add_shape(ground_body,
-            std::make_shared<BoxShape>(Eigen::Vector3d(options.ground_size, options.ground_size,
-                                                       options.ground_thickness)),
-            Eigen::Vector3d::Zero(), std::string(kGroundName) + "_shape", options.ground_friction);
+  const ShapeNode* ground_shape = add_shape(
+      ground_body,
+      std::make_shared<BoxShape>(
+          Eigen::Vector3d(options.ground_size, options.ground_size, options.ground_thickness)),
+      Eigen::Vector3d::Zero(), std::string(kGroundName) + "_shape", options.ground_friction);
   ground->setMobile(false);
 
   auto world = dart::simulation::World::create("hexapod_world");
+  // Before anything is added: World::setConstraintSolver hands the skeletons over but not the
+  // collision detector or its options.
+  world->setConstraintSolver(std::make_unique<RigidRobotContactSolver>());
   world->setGravity(Eigen::Vector3d(0.0, 0.0, -options.gravity));
   world->setTimeStep(options.time_step);
-  world->getConstraintSolver()->setCollisionDetector(
-      dart::collision::DARTCollisionDetector::create());
+  dart::constraint::ConstraintSolver* solver = world->getConstraintSolver();
+  solver->setCollisionDetector(dart::collision::DARTCollisionDetector::create());
+  solver->getCollisionOption().collisionFilter =
+      std::make_shared<GroundContactFilter>(ground_shape, *robot, 0.0);
   world->addSkeleton(ground);
   world->addSkeleton(robot);
   return world;

@@ -37,7 +37,11 @@ struct WorldOptions {
 
 /// A world with gravity, the ground (a static box whose top face is the plane z = 0) and `robot`
 /// added to it. Uses DART's own collision detector (boxes and spheres only, stateless between
-/// steps, so a step is a function of the current state alone) and the default boxed-LCP solver.
+/// steps, so a step is a function of the current state alone) with GroundContactFilter (the
+/// ground against every robot shape; the robot does not collide with itself, as DART's default
+/// filter without self-collision) and RigidRobotContactSolver (DART's boxed-LCP solver, with a
+/// cheaper LCP matrix while every joint but the root is kinematic; contact_solver.hpp). Skeletons
+/// added to the world later collide with the ground only, not with the robot or each other.
 /// The effective contact friction is DART's combination of the two shapes' coefficients.
 /// Throws InvalidArgument when options are invalid or robot is null. Thread-safe.
 dart::simulation::WorldPtr make_world(const dart::dynamics::SkeletonPtr& robot,

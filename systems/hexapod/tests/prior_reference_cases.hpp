@@ -1,0 +1,110 @@
+#pragma once
+/// \file The cases of the prior's reference trajectories (issue 14): computed by
+/// make_prior_reference.cpp (which wrote tests/data/prior_reference.txt with the code before the
+/// speed-ups) and by test_hexapod_prior_reference.cpp (which compares the current code with that
+/// file). Each case is a matrix of 48-D states or state differences (simulator.hpp):
+///   chain <gait> <phi>   41 rows: x_0 = HexapodTask::initial_state(), x_{t+1} = x_t +
+///                        HexapodPrior::evaluate(x_t, u_t; phi), u_t = the gait's targets at t *
+///                        0.1 s (a prior-only model rollout: set_state every step);
+///   sim <gait> <phi>     41 rows: PriorSimulator(with_leg_removed(phi)): reset(), state(), then
+///                        step(u_t) and state() 40 times;
+///   onestep <phi>        80 rows: HexapodPrior::evaluate(x_t, u_t; phi) at the 80 transitions of
+///                        two gentle-gait episodes of the default "real" robot (measured, noisy
+///                        states: off-trajectory velocities, contacts and tilts);
+///   real tripod <leg>    41 rows: a HexapodRealSystem episode (servos, 1 ms step, no noise) of
+///                        the tripod gait, leg removed (-1: intact).
+/// Gaits: tripod (tripod_gait()), centre (all gait parameters 0.5), gentle7 (testing::gentle_gait
+/// of Rng(7)), random11 (uniform gait parameters of Rng(11): large amplitudes, some fall); phi in
+/// {-1 (intact), 5, 0}.
+
+#include <string>
+#include <vector>
+
+#include "drops/core/rng.hpp"
+#include "drops/rollout/rollout.hpp"
+#include "hexapod/controller.hpp"
+#include "hexapod/policy.hpp"
+#include "hexapod/prior.hpp"
+#include "hexapod/real_robot.hpp"
+#include "hexapod/task.hpp"
+#include "hexapod_mi_data.hpp"
+
+namespace drops::hexapod::testing {
+
+/// One reference case: its name ("chain tripod -1", ...) and its rows (dim rows x 48).
+struct ReferenceCase {
+  std::string name;
+  Eigen::MatrixXd rows;
+};
+
+/// Every case, in the order of the data file.
+inline std::vector<ReferenceCase> prior_reference_cases() {
+  struct Gait {
+    std::string name;
+    Eigen::VectorXd params;
+  };
+  std::vector<Gait> gaits;
+  gaits.push_back({"tripod", tripod_gait()});
+  gaits.push_back({"centre", Eigen::VectorXd::Constant(36, 0.5)});
+  Rng r7(7);
+  gaits.push_back({"gentle7", gentle_gait(r7)});
+  Rng r11(11);
+  Eigen::VectorXd p(36);
+  for (int i = 0; i < 36; ++i) p[i] = r11.uniform();
+  gaits.push_back({"random11", p});
+
+  std::vector<ReferenceCase> cases;
+  const HexapodTask task;
+  const HexapodPrior prior;
+  const int phis[] = {-1, 5, 0};
+  for (const Gait& g : gaits) {
+    GaitController ctrl;
+    ctrl.set_params(g.params);
+    for (int phi : phis) {
+      const std::string suffix = " " + g.name + " " + std::to_string(phi);
+      Eigen::MatrixXd xs(41, kStateDim);
+      Eigen::VectorXd x = task.initial_state(), dx(kStateDim);
+      xs.row(0) = x.transpose();
+      for (int t = 0; t < 40; ++t) {
+        prior.evaluate(x, ctrl.targets(t * 0.1), Eigen::VectorXd::Constant(1, phi), dx);
+        x += dx;
+        xs.row(t + 1) = x.transpose();
+      }
+      cases.push_back({"chain" + suffix, xs});
+
+      PriorSimulator sim(HexapodSpec::with_leg_removed(phi));
+      sim.reset();
+      xs.row(0) = sim.state().transpose();
+      for (int t = 0; t < 40; ++t) {
+        sim.step(ctrl.targets(t * 0.1));
+        xs.row(t + 1) = sim.state().transpose();
+      }
+      cases.push_back({"sim" + suffix, xs});
+    }
+  }
+
+  const std::vector<Transition> data = real_data(damaged(-1), 2);
+  for (int phi : phis) {
+    Eigen::MatrixXd d(static_cast<Eigen::Index>(data.size()), kStateDim);
+    Eigen::VectorXd dx(kStateDim);
+    for (std::size_t n = 0; n < data.size(); ++n) {
+      prior.evaluate(data[n].x, data[n].u, Eigen::VectorXd::Constant(1, phi), dx);
+      d.row(static_cast<Eigen::Index>(n)) = dx.transpose();
+    }
+    cases.push_back({"onestep " + std::to_string(phi), d});
+  }
+
+  for (int leg : {-1, 5}) {
+    RealRobotOptions o = damaged(leg);
+    o.noise = MeasurementNoise{0, 0, 0, 0, 0, 0};
+    const HexapodRealSystem real(o);
+    HexapodGaitPolicy policy;
+    policy.set_params(policy.theta_of(tripod_gait()));
+    Rng rng(1);
+    cases.push_back({"real tripod " + std::to_string(leg),
+                     rollout::run_episode(task, real, policy, rng).states});
+  }
+  return cases;
+}
+
+}  // namespace drops::hexapod::testing
