@@ -35,11 +35,11 @@
 #include "drops/experiment/experiment.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "hexapod/plugin.hpp"
-#include "hexapod/policy.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/real_robot.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/plugin.hpp"
+#include "drops/hexapod/policy.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/real_robot.hpp"
+#include "drops/hexapod/task.hpp"
 
 using namespace drops;
 

@@ -11,7 +11,7 @@
 #include "drops/experiment/registry.hpp"
 #include "drops/pendubot/plugin.hpp"
 #ifdef DROPS_WITH_HEXAPOD
-#include "hexapod/plugin.hpp"
+#include "drops/hexapod/plugin.hpp"
 #endif
 
 int main(int argc, char** argv) {

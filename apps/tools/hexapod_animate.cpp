@@ -3,7 +3,7 @@
 // when DART's gui-osg component is installed (scripts/install-deps --render); needs a display, so
 // run it under Xvfb on a machine without one:
 //
-//   xvfb-run -a build/systems/hexapod/hexapod_animate RUN_DIR EPISODE [--output FILE.gif]
+//   xvfb-run -a build/apps/tools/hexapod_animate RUN_DIR EPISODE [--output FILE.gif]
 //
 // The robot is the run's "real" robot (config.yaml: hexapod.damage.*), placed at each recorded
 // state of episodes/NNN/real.csv (the measured states, noise included). The camera looks at the
@@ -31,9 +31,9 @@
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/pendubot/plugin.hpp"
-#include "hexapod/plugin.hpp"
-#include "hexapod/robot.hpp"
-#include "hexapod/simulator.hpp"
+#include "drops/hexapod/plugin.hpp"
+#include "drops/hexapod/robot.hpp"
+#include "drops/hexapod/simulator.hpp"
 
 namespace fs = std::filesystem;
 namespace hx = drops::hexapod;

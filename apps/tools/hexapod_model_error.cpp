@@ -19,8 +19,8 @@
 #include "drops/core/errors.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/model/dynamics_model.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/task.hpp"
 
 namespace {
 

@@ -30,10 +30,10 @@
 #include "drops/core/rng.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "hexapod/policy.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/real_robot.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/policy.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/real_robot.hpp"
+#include "drops/hexapod/task.hpp"
 
 using namespace drops;
 

@@ -1,8 +1,8 @@
 // Writes the reference trajectories of test_hexapod_prior_reference.cpp to stdout (issue 14, item
 // 1: the prior's trajectories must stay what they were before the prior was made faster):
 //
-//   cd systems/hexapod/tests/data
-//   ../../../../build/systems/hexapod/make_prior_reference $(git rev-parse HEAD) >
+//   cd tasks/hexapod/tests/data
+//   ../../../../build/tasks/hexapod/make_prior_reference $(git rev-parse HEAD) >
 //   prior_reference.txt
 //
 // The checked-in data file was written by this program built from the commit named in its first

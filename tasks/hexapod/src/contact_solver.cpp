@@ -1,7 +1,7 @@
 // GroundContactFilter and RigidRobotContactSolver (contact_solver.hpp). DART translation unit:
 // no -march=native.
 
-#include "hexapod/contact_solver.hpp"
+#include "contact_solver.hpp"
 
 #include <dart/external/odelcpsolver/common.h>
 

@@ -22,11 +22,11 @@
 
 #include "drops/core/rng.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "hexapod/controller.hpp"
-#include "hexapod/policy.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/real_robot.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/controller.hpp"
+#include "drops/hexapod/policy.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/real_robot.hpp"
+#include "drops/hexapod/task.hpp"
 #include "hexapod_mi_data.hpp"
 
 namespace drops::hexapod::testing {

@@ -1,6 +1,6 @@
 // The hexapod prior mean function and its simulator pool (prior.hpp). No DART include here.
 
-#include "hexapod/prior.hpp"
+#include "drops/hexapod/prior.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -4,10 +4,10 @@
 #include <gtest/gtest.h>
 
 #include "drops/rollout/rollout.hpp"
-#include "hexapod/controller.hpp"
-#include "hexapod/policy.hpp"
-#include "hexapod/real_robot.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/controller.hpp"
+#include "drops/hexapod/policy.hpp"
+#include "drops/hexapod/real_robot.hpp"
+#include "drops/hexapod/task.hpp"
 
 namespace drops::hexapod {
 namespace {

@@ -23,7 +23,7 @@
 #include <sstream>
 #include <string>
 
-#include "hexapod/contact_solver.hpp"
+#include "contact_solver.hpp"
 #include "prior_reference_cases.hpp"
 
 namespace drops::hexapod {

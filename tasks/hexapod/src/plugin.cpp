@@ -1,5 +1,5 @@
 // The hexapod task plugin: keys, factory and report labels.
-#include "hexapod/plugin.hpp"
+#include "drops/hexapod/plugin.hpp"
 
 #include <fmt/format.h>
 
@@ -8,11 +8,11 @@
 #include <limits>
 
 #include "drops/core/errors.hpp"
-#include "hexapod/policy.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/real_robot.hpp"
-#include "hexapod/simulator.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/policy.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/real_robot.hpp"
+#include "drops/hexapod/simulator.hpp"
+#include "drops/hexapod/task.hpp"
 
 namespace drops::hexapod {
 namespace {

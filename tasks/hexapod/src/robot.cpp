@@ -1,7 +1,7 @@
 // The hexapod description (robot.hpp) and its DART skeleton and world (robot_dart.hpp).
 // Compiled without -march=native (DART translation unit).
 
-#include "hexapod/robot.hpp"
+#include "drops/hexapod/robot.hpp"
 
 #include <cmath>
 #include <memory>
@@ -17,8 +17,8 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
-#include "hexapod/contact_solver.hpp"
-#include "hexapod/robot_dart.hpp"
+#include "contact_solver.hpp"
+#include "robot_dart.hpp"
 
 namespace drops::hexapod {
 namespace {

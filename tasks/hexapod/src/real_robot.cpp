@@ -1,6 +1,6 @@
 // The "real" hexapod (real_robot.hpp). No DART include here: the physics is PriorSimulator's.
 
-#include "hexapod/real_robot.hpp"
+#include "drops/hexapod/real_robot.hpp"
 
 #include <cmath>
 #include <sstream>

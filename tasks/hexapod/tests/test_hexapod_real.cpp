@@ -9,12 +9,12 @@
 #include <vector>
 
 #include "drops/core/errors.hpp"
-#include "hexapod/controller.hpp"
-#include "hexapod/policy.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/real_robot.hpp"
-#include "hexapod/simulator.hpp"
-#include "hexapod/task.hpp"
+#include "drops/hexapod/controller.hpp"
+#include "drops/hexapod/policy.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/real_robot.hpp"
+#include "drops/hexapod/simulator.hpp"
+#include "drops/hexapod/task.hpp"
 
 namespace drops::hexapod {
 namespace {

@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "drops/model/mean_function.hpp"
-#include "hexapod/simulator.hpp"
+#include "drops/hexapod/simulator.hpp"
 
 namespace drops::hexapod {
 

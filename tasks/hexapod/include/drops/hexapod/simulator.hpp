@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include "hexapod/robot.hpp"
+#include "drops/hexapod/robot.hpp"
 
 namespace dart::simulation {
 class World;

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "drops/core/errors.hpp"
-#include "hexapod/controller.hpp"
-#include "hexapod/prior.hpp"
-#include "hexapod/robot.hpp"
-#include "hexapod/simulator.hpp"
+#include "drops/hexapod/controller.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/robot.hpp"
+#include "drops/hexapod/simulator.hpp"
 
 namespace drops::hexapod {
 namespace {

@@ -1,12 +1,12 @@
 // The hexapod's open-loop periodic gait controller (controller.hpp). No DART.
 
-#include "hexapod/controller.hpp"
+#include "drops/hexapod/controller.hpp"
 
 #include <cmath>
 #include <sstream>
 
 #include "drops/core/errors.hpp"
-#include "hexapod/robot.hpp"
+#include "drops/hexapod/robot.hpp"
 
 namespace drops::hexapod {
 namespace {

@@ -29,7 +29,7 @@
 #include <string>
 
 #include "drops/rollout/task.hpp"
-#include "hexapod/simulator.hpp"
+#include "drops/hexapod/simulator.hpp"
 
 namespace drops::hexapod {
 

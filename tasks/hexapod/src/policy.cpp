@@ -1,6 +1,6 @@
 // HexapodGaitPolicy (policy.hpp). No DART include here.
 
-#include "hexapod/policy.hpp"
+#include "drops/hexapod/policy.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 #include "drops/core/errors.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/pendubot/plugin.hpp"
-#include "hexapod/plugin.hpp"
+#include "drops/hexapod/plugin.hpp"
 
 using namespace drops;
 

@@ -1,6 +1,6 @@
 // HexapodTask (task.hpp). No DART include here.
 
-#include "hexapod/task.hpp"
+#include "drops/hexapod/task.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "drops/policy/policy.hpp"
-#include "hexapod/controller.hpp"
-#include "hexapod/robot.hpp"
+#include "drops/hexapod/controller.hpp"
+#include "drops/hexapod/robot.hpp"
 
 namespace drops::hexapod {
 

@@ -9,7 +9,7 @@
 #include <dart/simulation/World.hpp>
 #include <string>
 
-#include "hexapod/robot.hpp"
+#include "drops/hexapod/robot.hpp"
 
 namespace drops::hexapod {
 

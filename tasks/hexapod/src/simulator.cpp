@@ -1,6 +1,6 @@
 // The hexapod prior simulator (simulator.hpp). DART translation unit: no -march=native.
 
-#include "hexapod/simulator.hpp"
+#include "drops/hexapod/simulator.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -15,7 +15,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
-#include "hexapod/robot_dart.hpp"
+#include "robot_dart.hpp"
 
 namespace drops::hexapod {
 namespace {

@@ -5,7 +5,7 @@
 /// labels (one panel per damage of the real robot, the walking speed as metric). No DART here.
 
 #include "drops/experiment/registry.hpp"
-#include "hexapod/robot.hpp"
+#include "drops/hexapod/robot.hpp"
 
 namespace drops::hexapod {
 
