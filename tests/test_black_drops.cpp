@@ -156,6 +156,57 @@ TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisy
   EXPECT_GT(margin_sum / 3, 1.0);
 }
 
+// A model of one's own plugs in through BlackDropsOptions::model_factory: here a wrapper that
+// counts its calls and its learn()s around the default model, so the run must equal the default.
+TEST(BlackDrops, ACustomModelFactoryIsUsedForEveryLearning) {
+  const auto e = fixtures::experiment({"episodes=3", "optimizer.max_evaluations=300",
+                                       "optimizer.prior_optimizations=1"});
+  class Counting final : public model::DynamicsModel {
+   public:
+    Counting(std::unique_ptr<model::DynamicsModel> m, int* learns) : m_(std::move(m)), learns_(learns) {}
+    model::ModelType type() const override { return m_->type(); }
+    model::ModelSummary learn(const std::vector<Transition>& d,
+                              const model::ModelProgress& p) override {
+      ++*learns_;
+      return m_->learn(d, p);
+    }
+    void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override {
+      m_->predict(x, u, out);
+    }
+    void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
+                       MatrixXd& var) const override {
+      m_->predict_batch(X, U, mean, var);
+    }
+    VectorXd phi() const override { return m_->phi(); }
+    model::ModelState state() const override { return m_->state(); }
+    void restore(const model::ModelState& s) override { m_->restore(s); }
+
+   private:
+    std::unique_ptr<model::DynamicsModel> m_;
+    int* learns_;
+  };
+  auto o = experiment::black_drops_options(e.settings);
+  std::vector<algo::EpisodeRecord> plain, custom;
+  algo::BlackDropsCallbacks cb;
+  cb.on_episode = [&](const algo::EpisodeRecord& r) { plain.push_back(r); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb);
+  int made = 0, learns = 0;
+  o.model_factory = [&](const model::ModelOptions& mo, std::shared_ptr<const rollout::Task> t,
+                        std::shared_ptr<const model::MeanFunction> p,
+                        const model::PriorParameters& pp) -> std::unique_ptr<model::DynamicsModel> {
+    ++made;
+    return std::make_unique<Counting>(model::make_model(mo, t, p, pp), &learns);
+  };
+  cb.on_episode = [&](const algo::EpisodeRecord& r) { custom.push_back(r); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb);
+  EXPECT_EQ(made, 1);
+  EXPECT_EQ(learns, 2);  // before episodes 2 and 3
+  ASSERT_EQ(custom.size(), plain.size());
+  for (std::size_t k = 0; k < plain.size(); ++k) EXPECT_EQ(custom[k].real_return, plain[k].real_return);
+}
+
 TEST(BlackDrops, InvalidOptionsAreRejected) {
   algo::BlackDropsOptions o;
   o.episodes = 0;

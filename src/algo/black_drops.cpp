@@ -149,7 +149,10 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
              policy.observation_dim());
   const auto t_run = Clock::now();
   const bool with_prior = model::uses_prior(options.model.type);
-  auto model = model::make_model(options.model, task, prior, prior_parameters);
+  auto model = options.model_factory
+                   ? options.model_factory(options.model, task, prior, prior_parameters)
+                   : model::make_model(options.model, task, prior, prior_parameters);
+  if (!model) throw InvalidArgument("run_black_drops: the model factory returned no model");
 
   BlackDropsSummary summary;
   std::vector<Transition> data;

@@ -37,6 +37,13 @@ opt::CmaesOptions policy_search_cmaes_defaults();
 /// the log-likelihood gains less than 1e-3 over 10 iterations. Thread-safe.
 model::ModelOptions black_drops_model_defaults();
 
+/// Builds the dynamics model Algorithm 1 learns (called once per run, before episode 1). The
+/// default, model::make_model, gives the four variants of model.type; a custom factory plugs in a
+/// model of your own (any DynamicsModel) without touching the algorithm.
+using ModelFactory = std::function<std::unique_ptr<model::DynamicsModel>(
+    const model::ModelOptions& options, std::shared_ptr<const rollout::Task> task,
+    std::shared_ptr<const model::MeanFunction> prior, const model::PriorParameters& parameters)>;
+
 /// Options of Algorithm 1. Defaults follow settings.md §1 and §5 (and are the defaults of the
 /// drops command line unless a task changes them).
 struct BlackDropsOptions {
@@ -44,6 +51,9 @@ struct BlackDropsOptions {
   std::uint64_t seed = 1;         ///< the run's single seed; every random stream derives from it
   double theta_bound = 5.0;       ///< policy parameters searched in [-b, b], > 0
   model::ModelOptions model = black_drops_model_defaults();  ///< which model variant and its settings
+  /// The model's factory (empty: model::make_model). With a prior, episode 1 still plans on the
+  /// prior alone (model::make_prior_only_model).
+  ModelFactory model_factory;
   /// Policy optimizer (seed and sigma0 are set per episode).
   opt::CmaesOptions cmaes = policy_search_cmaes_defaults();
   rollout::RolloutOptions rollouts;  ///< Monte-Carlo rollouts per policy evaluation
