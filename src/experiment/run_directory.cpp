@@ -54,6 +54,21 @@ double number_or_nan(const nlohmann::json& j, const char* key) {
   return it != j.end() && it->is_number() ? it->get<double>() : kNaN;
 }
 
+/// Each CMA-ES run of a search (values are returns: the optimizer's values negated).
+nlohmann::json runs_json(const opt::CmaesSummary& search) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (const auto& r : search.runs)
+    runs.push_back({{"lambda", r.lambda},
+                    {"sigma0", r.sigma0},
+                    {"from", r.from_start ? "start" : "random"},
+                    {"regime", r.small ? "small" : "large"},
+                    {"evaluations", r.evaluations},
+                    {"generations", r.generations},
+                    {"best_return", number(-r.best_value)},
+                    {"stop", r.stop_reason}});
+  return runs;
+}
+
 nlohmann::json report_json(const ReportInfo& r) {
   nlohmann::json labels = nlohmann::json::array();
   for (const auto& [v, l] : r.phi_value_labels) labels.push_back({v, l});
@@ -251,18 +266,8 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
     e["policy_search"] = "random";
   } else if (!rec.policy_search.runs.empty()) {
     e["policy_search"] = rec.policy_search.BriefReport();
-    // Each CMA-ES run (values are returns: the optimizer's values negated) and the selection.
-    nlohmann::json runs = nlohmann::json::array();
-    for (const auto& r : rec.policy_search.runs)
-      runs.push_back({{"lambda", r.lambda},
-                      {"sigma0", r.sigma0},
-                      {"from", r.from_start ? "start" : "random"},
-                      {"regime", r.small ? "small" : "large"},
-                      {"evaluations", r.evaluations},
-                      {"generations", r.generations},
-                      {"best_return", number(-r.best_value)},
-                      {"stop", r.stop_reason}});
-    e["policy_search_runs"] = runs;
+    // Each CMA-ES run and the selection.
+    e["policy_search_runs"] = runs_json(rec.policy_search);
     e["policy_selection"] = {{"selected", rec.selected},
                              {"candidates", rec.reevaluated_candidates},
                              {"reevaluated_return", number(rec.reevaluated_return)},
@@ -432,18 +437,8 @@ void RunDirectory::finish(const algo::RunSummary& s, const std::string& status,
   summary_["seconds"] = previous_seconds_ + s.seconds;  // over every session of the run
   summary_["finished"] = now_iso();
   if (!s.search.runs.empty()) {
-    nlohmann::json runs = nlohmann::json::array();
-    for (const auto& r : s.search.runs)
-      runs.push_back({{"lambda", r.lambda},
-                      {"sigma0", r.sigma0},
-                      {"from", r.from_start ? "start" : "random"},
-                      {"regime", r.small ? "small" : "large"},
-                      {"evaluations", r.evaluations},
-                      {"generations", r.generations},
-                      {"best_return", number(-r.best_value)},
-                      {"stop", r.stop_reason}});
     summary_["search"] = {{"summary", s.search.BriefReport()},
-                          {"runs", runs},
+                          {"runs", runs_json(s.search)},
                           {"restarts", s.search.restarts},
                           {"start_return", number(-s.search.start_value)},
                           {"best_theta", to_std(s.search.best_x)}};
