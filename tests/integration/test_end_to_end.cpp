@@ -9,12 +9,14 @@
 #include <cstdio>
 #include <csignal>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
 #include <thread>
+#include <vector>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -142,32 +144,136 @@ TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
   fs::remove_all(out);
 }
 
-TEST(EndToEnd, InterruptKeepsEveryFinishedEpisode) {
-  const fs::path out = fresh_dir("sigint");
-  const std::string cmd = std::string(DROPS_BINARY) + " run episodes=50 model.type=gp_prior "
-                          "optimizer.max_evaluations=2000 --output " + out.string() +
-                          " --name run -q";
+namespace {
+
+/// Starts `drops run <args> --output out --name run -q` in the background.
+pid_t spawn_run(const std::string& args, const fs::path& out, const fs::path& err) {
+  const std::string cmd = std::string(DROPS_BINARY) + " run " + args + " --output " +
+                          out.string() + " --name run";
   const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
   if (pid == 0) {
-    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>/dev/null").c_str(), nullptr);
+    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>" + err.string()).c_str(), nullptr);
     _exit(127);
   }
-  // wait for two recorded episodes, then Ctrl-C
-  const fs::path csv = out / "run" / "episodes.csv";
-  for (int i = 0; i < 600 && count_lines(csv) < 3; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  return pid;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+// Ctrl-C (SIGINT) and SIGTERM (kill, a batch system's time limit) alike stop the run after its
+// current step: every finished episode is kept, the status is "interrupted", the exit code 130,
+// and the message says how to continue.
+TEST(EndToEnd, InterruptAndTerminateKeepEveryFinishedEpisode) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(sig == SIGINT ? "SIGINT" : "SIGTERM");
+    const fs::path out = fresh_dir("interrupt");
+    const fs::path err = out / "stderr";
+    const pid_t pid = spawn_run("episodes=50 model.type=gp_prior optimizer.max_evaluations=2000",
+                                out, err);
+    ASSERT_GE(pid, 0);
+    // wait for two recorded episodes, then the signal
+    const fs::path csv = out / "run" / "episodes.csv";
+    for (int i = 0; i < 600 && count_lines(csv) < 3; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    kill(pid, sig);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 130);
+    const auto summary = read_json(out / "run" / "summary.json");
+    EXPECT_EQ(summary["status"], "interrupted");
+    const int done = summary["episodes_done"].get<int>();
+    EXPECT_GE(done, 2);
+    EXPECT_LT(done, 50);
+    EXPECT_EQ(count_lines(csv), done + 1);
+    EXPECT_NE(slurp(err).find("continue it with: drops run --resume " + (out / "run").string()),
+              std::string::npos)
+        << slurp(err);
+    fs::remove_all(out);
+  }
+}
+
+// Interrupted during episode 1 (the policy search on the prior), a run has no checkpoint: it says
+// to start again and does not offer a --resume that would be refused.
+TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
+  const fs::path out = fresh_dir("first");
+  const fs::path err = out / "stderr";
+  const pid_t pid = spawn_run("optimizer.max_evaluations=200000", out, err);
+  for (int i = 0; i < 600 && !fs::exists(out / "run" / "summary.json"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
   kill(pid, SIGINT);
   int status = 0;
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 130);
-  const auto summary = read_json(out / "run" / "summary.json");
-  EXPECT_EQ(summary["status"], "interrupted");
-  const int done = summary["episodes_done"].get<int>();
-  EXPECT_GE(done, 2);
-  EXPECT_LT(done, 50);
-  EXPECT_EQ(count_lines(csv), done + 1);
+  const std::string text = slurp(err);
+  EXPECT_EQ(text.find("--resume"), std::string::npos) << text;
+  EXPECT_NE(text.find("no episode finished, so there is nothing to continue: start the run again"),
+            std::string::npos)
+      << text;
+  EXPECT_FALSE(fs::exists(out / "run" / "checkpoint.json"));
+  EXPECT_EQ(read_json(out / "run" / "summary.json")["status"], "interrupted");
+  // ... and --resume, tried anyway, says the same.
+  std::string resume_err;
+  EXPECT_EQ(run("run --resume " + (out / "run").string(), &resume_err), 1);
+  EXPECT_NE(resume_err.find("no checkpoint.json"), std::string::npos) << resume_err;
+  fs::remove_all(out);
+}
+
+// Runs with the default name (which holds the time to the second) started together get a
+// directory each: the name is claimed with mkdir, and a taken one gets "-2", "-3", ...
+TEST(EndToEnd, RunsStartedInTheSameSecondGetADirectoryEach) {
+  const fs::path out = fresh_dir("same-second");
+  // Taken names for the next seconds, so that the runs below must avoid them.
+  const std::string base = "pendubot-gp_mi-tunable-useful-seed1-";
+  const auto now = std::chrono::system_clock::now();
+  for (int s = -1; s < 60; ++s) {
+    const std::time_t t = std::chrono::system_clock::to_time_t(now + std::chrono::seconds(s));
+    std::tm tm{};
+    localtime_r(&t, &tm);
+    char stamp[32];
+    std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm);
+    fs::create_directories(out / (base + stamp));
+    std::ofstream(out / (base + stamp) / "episodes.csv") << "episode\n";
+  }
+  const std::string cmd = std::string(DROPS_BINARY) +
+                          " run episodes=1 optimizer.max_evaluations=40 "
+                          "optimizer.prior_optimizations=1 rollouts.predicted=2 "
+                          "optimizer.reevaluation_rollouts=2 threads=1 -q --output " +
+                          out.string();
+  std::vector<pid_t> pids;
+  for (int i = 0; i < 3; ++i) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>/dev/null").c_str(), nullptr);
+      _exit(127);
+    }
+    pids.push_back(pid);
+  }
+  for (const pid_t pid : pids) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+  }
+  int runs = 0;
+  for (const auto& entry : fs::directory_iterator(out))
+    if (fs::exists(entry.path() / "summary.json")) {
+      ++runs;
+      EXPECT_EQ(read_json(entry.path() / "summary.json")["status"], "complete");
+      const std::string n = entry.path().filename().string();
+      EXPECT_EQ(n.rfind(base, 0), 0u) << n;
+      EXPECT_NE(n.find_last_of('-'), base.size() + 8) << n << ": expected a suffix -2, -3, ...";
+    }
+  EXPECT_EQ(runs, 3);
   fs::remove_all(out);
 }
 
