@@ -19,6 +19,14 @@
 #include <vector>
 #include <unistd.h>
 
+#include "drops/experiment/campaign.hpp"
+#include "drops/experiment/config.hpp"
+#include "drops/experiment/registry.hpp"
+#include "drops/pendubot/plugin.hpp"
+#ifdef DROPS_WITH_HEXAPOD
+#include "drops/hexapod/plugin.hpp"
+#endif
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -105,31 +113,71 @@ TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
   fs::remove_all(out);
 }
 
-// Every experiment file shipped in configs/ runs as `drops run FILE` with its progress lines on
-// (not -q: the per-episode line once crashed for the gp variant, which has no phi), with tiny
-// budgets. Campaign and study files (they have a grid) are run by the campaign tests.
-TEST(EndToEnd, EveryShippedExperimentFileRunsWithItsProgressLines) {
+// Every file shipped in configs/ works as documented, with tiny budgets:
+// - an experiment file runs as `drops run FILE` with its progress lines on (not -q: the
+//   per-episode line once crashed for the gp variant, which has no phi);
+// - a campaign or study file (it has a grid) passes `drops campaign FILE --dry-run`, which builds
+//   every run's experiment, and the first run of its grid runs as `drops run` from the
+//   configuration the campaign would give it.
+TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
   const fs::path out = fresh_dir("configs");
-  int files = 0;
-  for (const auto& entry : fs::directory_iterator(fs::path(DROPS_SOURCE_DIR) / "configs")) {
-    if (entry.path().extension() != ".yaml") continue;
-    std::ifstream in(entry.path());
+  drops::experiment::Registry registry;
+  drops::experiment::register_builtin_algorithms(registry);
+  drops::pendubot::register_task(registry);
+#ifdef DROPS_WITH_HEXAPOD
+  drops::hexapod::register_task(registry);
+#endif
+  const std::string tiny =
+      " episodes=2 optimizer.max_evaluations=40 optimizer.prior_optimizations=1"
+      " rollouts.predicted=2 optimizer.reevaluation_rollouts=2";
+  int experiments = 0, campaigns = 0;
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(fs::path(DROPS_SOURCE_DIR) / "configs"))
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& file : files) {
+    const std::string name = file.stem().string();
+    SCOPED_TRACE(name);
+    std::ifstream in(file);
     std::stringstream text;
     text << in.rdbuf();
-    if (text.str().find("\ngrid:") != std::string::npos) continue;
-    ++files;
-    const std::string name = entry.path().stem().string();
+    fs::path config = file;
+    std::string extra;
+    if (text.str().find("\ngrid:") != std::string::npos) {
+      ++campaigns;
+      std::string err;
+      const fs::path listing = out / (name + ".dry-run");
+      EXPECT_EQ(run("campaign " + file.string() + " --dry-run --output " + out.string() + " > " +
+                        listing.string(),
+                    &err),
+                0)
+          << err;
+      std::ifstream l(listing);
+      std::stringstream dry;
+      dry << l.rdbuf();
+      EXPECT_NE(dry.str().find(" to start,"), std::string::npos) << dry.str();
+      // The first run of the grid, as the campaign would write its configs/<run>.yaml.
+      const auto spec = drops::experiment::load_campaign_file(registry, file.string());
+      EXPECT_FALSE(fs::exists(out / spec.name)) << "--dry-run wrote the campaign directory";
+      const auto runs = drops::experiment::expand_campaign(registry, spec, false);
+      ASSERT_FALSE(runs.empty());
+      config = out / (name + "-first-run.yaml");
+      std::ofstream(config) << drops::experiment::to_yaml(registry, runs.front().settings);
+      // A hexapod episode is thousands of DART steps: a short horizon keeps the test small.
+      if (runs.front().settings.at("task") == "hexapod") extra = " hexapod.horizon=20";
+    } else {
+      ++experiments;
+    }
     std::string err;
-    const int rc = run("run " + entry.path().string() +
-                           " episodes=2 optimizer.max_evaluations=40 optimizer.prior_optimizations=1"
-                           " rollouts.predicted=2 optimizer.reevaluation_rollouts=2 --output " +
-                           out.string() + " --name " + name,
+    const int rc = run("run " + config.string() + tiny + extra + " --output " + out.string() +
+                           " --name " + name,
                        &err);
-    EXPECT_EQ(rc, 0) << name << ": " << err;
-    EXPECT_NE(err.find("episode  2/2"), std::string::npos) << name << ": " << err;
-    EXPECT_NE(err.find("done: 2 episodes"), std::string::npos) << name << ": " << err;
+    EXPECT_EQ(rc, 0) << err;
+    EXPECT_NE(err.find("episode  2/2"), std::string::npos) << err;
+    EXPECT_NE(err.find("done: 2 episodes"), std::string::npos) << err;
   }
-  EXPECT_GE(files, 5);  // the four pendubot variants and the hexapod
+  EXPECT_GE(experiments, 5);  // the four pendubot variants and the hexapod
+  EXPECT_GE(campaigns, 3);
   fs::remove_all(out);
 }
 
