@@ -48,6 +48,18 @@ experiment::Settings settings_from(const experiment::Registry& registry, const s
              : experiment::load_settings_file(registry, file, overrides);
 }
 
+experiment::Experiment make_experiment_from(const experiment::Registry& registry,
+                                            const experiment::Settings& settings,
+                                            const std::string& source) {
+  try {
+    return experiment::make_experiment(registry, settings);
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    if (source.empty() || what.rfind(source + ":", 0) == 0) throw;
+    throw ConfigError(source + ": " + what);
+  }
+}
+
 void install_interrupt_handler() {
   g_interrupts = 0;
   struct sigaction sa {};

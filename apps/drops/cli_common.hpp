@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "drops/experiment/config.hpp"
+#include "drops/experiment/experiment.hpp"
 
 namespace drops::app {
 
@@ -22,6 +23,12 @@ void split_args(const std::vector<std::string>& args, std::string& file,
 /// ConfigError on an unknown key or a bad value (the message names it).
 experiment::Settings settings_from(const experiment::Registry& registry, const std::string& file,
                                    const std::vector<std::string>& overrides);
+
+/// make_experiment(registry, settings), with `source` (the configuration file the settings came
+/// from; empty: none) named in the ConfigErrors it throws for what the schema alone cannot check.
+experiment::Experiment make_experiment_from(const experiment::Registry& registry,
+                                            const experiment::Settings& settings,
+                                            const std::string& source);
 
 /// Installs the SIGINT and SIGTERM handler and clears the count: after it, interrupt_requested()
 /// is true once Ctrl-C was pressed or SIGTERM received (the run stops after its current step,

@@ -38,11 +38,12 @@ struct RunArgs {
 
 }  // namespace
 
-/// Runs the experiment of `settings` (or continues the run in `resume_dir`), with the progress
-/// display of `drops run`. Shared by `drops run` and `drops direct`.
+/// Runs the experiment of `settings` (read from the configuration file `source`, empty: none), or
+/// continues the run in `resume_dir`, with the progress display of `drops run`. Shared by
+/// `drops run` and `drops direct`.
 int run_experiment(const experiment::Registry& registry, const experiment::Settings& settings,
-                   const std::string& resume_dir, bool quiet) {
-  const experiment::Experiment e = experiment::make_experiment(registry, settings);
+                   const std::string& source, const std::string& resume_dir, bool quiet) {
+  const experiment::Experiment e = make_experiment_from(registry, settings, source);
   ThreadLimit threads(e.threads);
   const bool resuming = !resume_dir.empty();
   std::unique_ptr<experiment::RunDirectory> dir;
@@ -155,6 +156,7 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
   if (a.threads) overrides.push_back("threads=" + std::to_string(*a.threads));
 
   experiment::Settings settings;
+  std::string source = file;
   const bool resuming = a.resume.has_value();
   if (resuming) {
     if (a.resume->empty())
@@ -174,14 +176,15 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
       throw Error(d.string() + " is not a run directory (no such directory)");
     if (!std::filesystem::exists(d / "config.yaml"))
       throw Error(d.string() + " is not a run directory (no config.yaml)");
-    settings = experiment::load_run_settings_file(registry, (d / "config.yaml").string(), overrides);
+    source = (d / "config.yaml").string();
+    settings = experiment::load_run_settings_file(registry, source, overrides);
   } else {
     if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
     if (!a.output.empty()) overrides.push_back("output=" + a.output);
     if (!a.name.empty()) overrides.push_back("name=" + a.name);
     settings = settings_from(registry, file, overrides);
   }
-  return run_experiment(registry, settings, a.resume.value_or(""), a.quiet);
+  return run_experiment(registry, settings, source, a.resume.value_or(""), a.quiet);
 }
 
 }  // namespace
@@ -225,7 +228,7 @@ void add_config_command(CLI::App& app, Action& action, const experiment::Registr
       std::vector<std::string> overrides;
       split_args(*args, file, overrides);
       const auto s = settings_from(registry, file, overrides);
-      experiment::make_experiment(registry, s);  // full validation
+      make_experiment_from(registry, s, file);  // full validation
       std::cout << experiment::to_yaml(registry, s);
       return 0;
     };

@@ -188,6 +188,15 @@ TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
   EXPECT_NE(err.find("did you mean 'model.type'"), std::string::npos) << err;
   EXPECT_EQ(run("run /nonexistent.yaml --output " + out.string(), &err), 2);
   EXPECT_NE(err.find("cannot read config file"), std::string::npos) << err;
+  // What only the task can check (the prior's starting l2 = 0.4 outside the bounds) names the file.
+  const fs::path file = out.parent_path() / ("drops-e2e-bad-" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(file) << "prior:\n  bounds:\n    l2: [0.5, 1.0]\n";
+  EXPECT_EQ(run("run " + file.string() + " --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find(file.string() + ": config key 'prior.bounds.l2'"), std::string::npos) << err;
+  fs::remove(file);
+  // A number YAML cannot read: the key, not yaml-cpp's bare "bad conversion".
+  EXPECT_EQ(run("run 'prior.bounds.m2=[0x1, 2]' --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find("config key 'prior.bounds.m2'"), std::string::npos) << err;
   EXPECT_TRUE(fs::is_empty(out));
   fs::remove_all(out);
 }
