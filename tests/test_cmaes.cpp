@@ -126,6 +126,25 @@ TEST(Cmaes, BipopSolvesRastrigin10D) {
   EXPECT_GE(solved, 4);
 }
 
+// A run's budget below its population (here 7 < lambda = 10) still gives each run one generation:
+// before, every run ended before its first and the search evaluated nothing (issue 18: `drops
+// direct --evaluations 30` recorded no episode).
+TEST(Cmaes, ARunBudgetBelowThePopulationStillEvaluatesAGenerationPerRun) {
+  CmaesOptions opt;
+  opt.sigma0 = 1.0;
+  opt.lambda = 10;
+  opt.max_evaluations = 30;
+  opt.max_run_evaluations = 7;
+  const auto s = cmaes_minimize([](const VectorXd& x, std::uint64_t) { return x.squaredNorm(); },
+                                VectorXd::Constant(4, 1.0), VectorXd::Constant(4, -5.0),
+                                VectorXd::Constant(4, 5.0), opt);
+  EXPECT_GE(s.evaluations, 10) << s.BriefReport();
+  EXPECT_LE(s.evaluations, 30) << s.BriefReport();
+  ASSERT_FALSE(s.runs.empty());
+  EXPECT_EQ(s.runs.front().evaluations, 10);
+  EXPECT_EQ(s.runs.front().generations, 1);
+}
+
 TEST(Cmaes, IpopDoublesPopulation) {
   CmaesOptions opt;
   opt.sigma0 = 2.0;
