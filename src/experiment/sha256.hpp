@@ -1,5 +1,5 @@
 #pragma once
-// SHA-256 (FIPS 180-4), for the checksums that checkpoint.json keeps of the files of a run
+// SHA-256 (FIPS 180-4, computed by OpenSSL's libcrypto), for the checksums that checkpoint.json keeps of the files of a run
 // directory (run_directory.cpp). Internal to drops::experiment.
 
 #include <cstdint>
