@@ -11,6 +11,7 @@
 #include <ctime>
 #include <sstream>
 
+#include "drops/experiment/archive_file.hpp"
 #include "drops/experiment/registry.hpp"
 
 namespace drops::experiment {
@@ -273,6 +274,11 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   }
   for (std::size_t i = 0; i < metrics.size() && i < setup.metric_names.size(); ++i)
     e[setup.metric_names[i]] = number(metrics[i]);
+  if (!rec.details.empty()) {
+    nlohmann::json details = nlohmann::json::object();
+    for (const auto& [k, v] : rec.details) details[k] = number(v);
+    e["details"] = details;
+  }
   summary_["episodes"].push_back(e);
   if (rec.solved && !summary_.contains("first_solved_episode"))
     summary_["first_solved_episode"] = rec.episode;
@@ -280,6 +286,25 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
 }
 
 void RunDirectory::save_state(const algo::RunState& st) {
+  // The archive first (archive.csv carries its own MAP-Elites cursor), then the checkpoint.
+  const auto& a = st.archive;
+  if (a.archive && (a.archive != written_archive_ || a.complete != written_complete_)) {
+    ArchiveFileInfo info = archive_file_info(experiment_.task, experiment_.setup);
+    info.complete = a.complete;
+    info.cursor = a.cursor;
+    write_archive_file(dir_ / "archive.csv", *a.archive, info);
+    written_archive_ = a.archive;  // held, so that its address is not reused
+    written_complete_ = a.complete;
+    summary_["archive"] = {{"file", "archive.csv"},
+                           {"complete", a.complete},
+                           {"cells", a.archive->size()},
+                           {"total_cells", a.archive->total_cells()},
+                           {"coverage", a.archive->coverage()},
+                           {"best_fitness", a.archive->empty() ? nlohmann::json(nullptr)
+                                                               : number(a.archive->best().fitness)},
+                           {"evaluations", a.cursor.evaluations}};
+    write_summary("running");
+  }
   nlohmann::json data_x = nlohmann::json::array(), data_u = nlohmann::json::array(),
                  data_dx = nlohmann::json::array();
   for (const auto& t : st.data) {
@@ -297,7 +322,7 @@ void RunDirectory::save_state(const algo::RunState& st) {
                             {"model_type", experiment_.variant},
                             {"episodes_done", st.episodes_done},
                             {"best_theta", to_std(st.best_theta)},
-                            {"best_return", st.best_return},
+                            {"best_return", number(st.best_return)},
                             {"first_solved_episode", st.first_solved_episode},
                             {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
                             {"extra", extra},
@@ -325,7 +350,9 @@ algo::RunState read_checkpoint(const fs::path& dir) {
     algo::RunState st;
     st.episodes_done = j.at("episodes_done").get<int>();
     st.best_theta = to_eigen(j.at("best_theta"), "best_theta");
-    st.best_return = j.at("best_return").get<double>();
+    // null: no episode yet (a state saved during an algorithm's preparation, e.g. IT&E's archive)
+    st.best_return = j.at("best_return").is_null() ? -std::numeric_limits<double>::infinity()
+                                                   : j.at("best_return").get<double>();
     st.first_solved_episode = j.at("first_solved_episode").get<int>();
     st.model.phi = to_eigen(j.at("model").at("phi"), "model.phi");
     for (const auto& h : j.at("model").at("h_params"))
@@ -371,6 +398,15 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     throw Error(dir.string() + ": checkpoint.json does not belong to the run's config.yaml "
                 "(seed, algorithm or model differ)");
   const int k = state->episodes_done;
+  // The archive of an algorithm that keeps one (IT&E): archive.csv, with its own cursor.
+  if (fs::exists(dir / "archive.csv")) {
+    const ArchiveFile file = read_archive_file(dir / "archive.csv");
+    state->archive.archive = file.archive;
+    state->archive.complete = file.info.complete;
+    state->archive.cursor = file.info.cursor;
+    rd->written_archive_ = file.archive;
+    rd->written_complete_ = file.info.complete;
+  }
 
   // Drop whatever was recorded after the checkpoint.
   {
@@ -447,6 +483,11 @@ void RunDirectory::finish(const algo::RunSummary& s, const std::string& status,
                           {"restarts", s.search.restarts},
                           {"start_return", number(-s.search.start_value)},
                           {"best_theta", to_std(s.search.best_x)}};
+  }
+  if (!s.details.empty()) {
+    nlohmann::json details = nlohmann::json::object();
+    for (const auto& [k, v] : s.details) details[k] = number(v);
+    summary_["details"] = details;
   }
   if (!error.empty()) summary_["error"] = error;
   write_summary(status);

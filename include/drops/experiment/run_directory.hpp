@@ -13,6 +13,8 @@
 ///     episodes/NNN/predicted.csv  mean-propagated trajectory on the model that chose the policy
 ///     episodes/NNN/policy.csv     policy parameters theta (one per line)
 ///     checkpoint.json             the algorithm's state after the last finished episode (--resume)
+///     archive.csv                 IT&E: the MAP-Elites archive (archive_file.hpp), saved with the
+///                                 state that holds it, before checkpoint.json
 ///     .lock                       flock()ed by the process writing the directory
 
 #include <cstdint>
@@ -68,8 +70,8 @@ class RunDirectory {
   RunDirectory(const RunDirectory&) = delete;
   RunDirectory& operator=(const RunDirectory&) = delete;
 
-  /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json into
-  /// *state, and removes what was recorded after it (rows of episodes.csv, episodes/NNN folders
+  /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json (and
+  /// archive.csv, when there is one, into state->archive) into *state, and removes what was recorded after it (rows of episodes.csv, episodes/NNN folders
   /// and summary entries of later episodes, e.g. an episode written just before a crash).
   /// experiment must be the one of DIR/config.yaml. Throws drops::Error when there is no
   /// checkpoint.json (no episode finished: start the run again) or it does not fit the experiment.
@@ -81,7 +83,9 @@ class RunDirectory {
   /// rec.keep_trajectories), then appends its row and rewrites summary.json.
   void record(const algo::EpisodeRecord& rec);
   /// Writes checkpoint.json (atomically): doubles in the shortest form that reads back exactly,
-  /// so a resumed run is bit-identical to an uninterrupted one.
+  /// so a resumed run is bit-identical to an uninterrupted one. When the state holds an archive
+  /// that was not written yet (another one, or now complete), writes it first as archive.csv
+  /// (with its MAP-Elites cursor) and records it in summary.json ("archive").
   void save_state(const algo::RunState& state);
   /// Rewrites summary.json with the final status ("complete", "interrupted" or "failed").
   void finish(const algo::RunSummary& summary, const std::string& status,
@@ -94,6 +98,8 @@ class RunDirectory {
   void write_summary(const std::string& status);
   int lock_fd_ = -1;
   double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
+  std::shared_ptr<const ite::Archive> written_archive_;  ///< last written to archive.csv
+  bool written_complete_ = false;                  ///< whether it was complete then
   std::filesystem::path dir_;
   const Experiment& experiment_;
   std::ofstream episodes_csv_;
