@@ -236,6 +236,8 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     return n.Scalar();
   }
   if (s.type == "enum") {
+    // An enum whose default depends on the task (empty default) may be left empty.
+    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
     if (!n.IsScalar() ||
         std::find(s.allowed.begin(), s.allowed.end(), n.Scalar()) == s.allowed.end())
       fail(s.key, text, "allowed values: " + joined(s.allowed));
