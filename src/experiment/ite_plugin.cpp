@@ -51,8 +51,8 @@ std::vector<KeySpec> ite_keys() {
        "algorithm ite: cells per descriptor dimension (empty = the task's grid)"});
   add({"ite.mutation", "enum", "", 0, 0, {"polynomial", "gaussian", "resample"}, "-",
        "algorithm ite: MAP-Elites' mutation: polynomial (Deb's bounded), gaussian, or resample "
-       "(genes on a grid of ite.grid_levels values, a mutated gene re-drawn; the reference "
-       "hexapod archive) (empty = the task's, else polynomial)"});
+       "(genes on a grid of ite.grid_levels values, a mutated gene re-drawn, as the reference "
+       "archive of Cully et al. 2015) (empty = the task's, else polynomial)"});
   add({"ite.mutation_rate", "double", "", 0, 1, {}, "-",
        "algorithm ite: probability that each gene of an offspring mutates (empty = the task's, "
        "else " + num(me.mutation_rate) + ")"});
