@@ -156,7 +156,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
                    {"predicted_sd", std::sqrt(mboa.variance(cell)) / scale}};
     if (episode == 1 && got.source == "map_elites") {
       rec.policy_seconds = got.seconds;
-      rec.evaluations = got.map_elites.evaluations;
+      rec.evaluations = got.cursor.evaluations;  // over every session of the generation
     }
 
     if (callbacks.on_status) callbacks.on_status(Status{episode, "episode", 0, 0});
