@@ -169,7 +169,7 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   const Outcome whole = run(e, 2);
   const fs::path dir = tmp.path() / "run";
   {
-    experiment::RunDirectory rd(dir, "config: {}\n", e);
+    experiment::RunDirectory rd(dir, experiment::to_yaml(fixtures::registry(), e.settings), e);
     ThreadLimit limit(2);
     algo::Callbacks cb;
     long evaluations = 0;
@@ -186,7 +186,8 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   ASSERT_TRUE(fs::exists(dir / "checkpoint.json"));
   EXPECT_FALSE(experiment::read_archive_file(dir / "archive.csv").info.complete);
   algo::RunState state;
-  auto rd = experiment::RunDirectory::reopen(dir, e, &state);
+  auto rd = experiment::RunDirectory::reopen(
+      dir, e, experiment::to_yaml(fixtures::registry(), e.settings), &state);
   EXPECT_EQ(state.episodes_done, 0);
   ASSERT_TRUE(state.archive.archive);
   EXPECT_FALSE(state.archive.complete);
