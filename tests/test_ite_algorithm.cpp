@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "drops/algo/ite.hpp"
 #include "drops/core/errors.hpp"
@@ -32,6 +33,13 @@ experiment::Experiment make(const std::vector<std::string>& more = {}) {
   std::vector<std::string> ov = kTiny;
   ov.insert(ov.end(), more.begin(), more.end());
   return fixtures::experiment(ov);
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 // What a run handed out: its episodes, its last state and the last archive.
@@ -216,6 +224,46 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   EXPECT_EQ(again.summary.details.count("archive_evaluations"), 0u);
   EXPECT_EQ(again.records[0].evaluations, 0);
   EXPECT_TRUE(*again.archive.archive == *whole.archive.archive);
+}
+
+// --resume of a run stopped in its archive's generation: a damaged archive.csv, or none beside a
+// checkpoint that covers no episode, is refused naming the file, and the directory is left as it was.
+TEST(IteAlgorithm, AResumeWithADamagedOrMissingArchiveIsRefusedNamingTheFile) {
+  TempDir tmp;
+  const auto e = make({"ite.checkpoint_minutes=0"});
+  const std::string yaml = experiment::to_yaml(fixtures::registry(), e.settings);
+  const fs::path dir = tmp.path() / "run";
+  {
+    experiment::RunDirectory rd(dir, yaml, e);
+    algo::Callbacks cb;
+    long evaluations = 0;
+    cb.on_status = [&](const algo::Status& s) { evaluations = s.evaluations; };
+    cb.should_stop = [&] { return evaluations >= 700; };
+    cb.on_state = [&](const algo::RunState& s) { rd.save_state(s); };
+    const auto s = e.runner->run(e.setup.problem(), cb);
+    ASSERT_EQ(s.episodes_done, 0);
+    rd.finish(s, "interrupted");
+  }
+  const fs::path archive = dir / "archive.csv";
+  const std::string good = read_text(archive);
+  auto refusal = [&] {
+    algo::RunState state;
+    try {
+      experiment::RunDirectory::reopen(dir, e, yaml, &state);
+    } catch (const experiment::RunDirectoryDamaged& ex) {
+      return std::string(ex.what());
+    }
+    return std::string("not refused");
+  };
+  std::ofstream(archive, std::ios::app) << "1,2,oops\n";
+  EXPECT_NE(refusal().find(archive.string()), std::string::npos) << refusal();
+  EXPECT_EQ(read_text(archive), good + "1,2,oops\n");
+  fs::remove(archive);
+  EXPECT_NE(refusal().find("archive.csv is missing"), std::string::npos) << refusal();
+  std::ofstream(archive) << good;
+  algo::RunState state;
+  EXPECT_NO_THROW(experiment::RunDirectory::reopen(dir, e, yaml, &state));
+  EXPECT_EQ(state.archive.cursor.evaluations, 700);
 }
 
 TEST(IteAlgorithm, TheArchiveCacheIsSharedByRunsThatDifferOnlyInTheRealSystem) {
