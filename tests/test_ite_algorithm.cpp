@@ -227,7 +227,7 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
 }
 
 // --resume of a run stopped in its archive's generation: a damaged archive.csv, or none beside a
-// checkpoint that covers no episode, is refused naming the file, and the directory is left as it was.
+// checkpoint that covers no episode, is refused naming the file, and nothing is changed.
 TEST(IteAlgorithm, AResumeWithADamagedOrMissingArchiveIsRefusedNamingTheFile) {
   TempDir tmp;
   const auto e = make({"ite.checkpoint_minutes=0"});

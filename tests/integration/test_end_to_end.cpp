@@ -168,8 +168,8 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
       // IT&E: a small archive, and the archive cache (a path relative to where the campaign runs)
       // under the test's directory.
       if (runs.front().settings.at("algorithm") == "ite")
-        extra += " ite.evaluations=400 ite.batch=100 ite.initial_population=100 ite.archive_cache=" +
-                 (out / "ite-archives").string();
+        extra += " ite.evaluations=400 ite.batch=100 ite.initial_population=100"
+                 " ite.archive_cache=" + (out / "ite-archives").string();
     } else {
       ++experiments;
     }
