@@ -12,6 +12,13 @@ Every statistic is computed by the C++ side; this script only draws.
       plot-data.json that `drops plot` writes with drops's run-directory reader; with body
       positions (x, y, yaw) also path-NNN.png, with foot heights gait-NNN.png.
 
+  drops_plot.py archive ARCHIVE_CSV OUTPUT_PNG
+      An IT&E MAP-Elites archive (a run's archive.csv, or any file of that format): every cell of
+      the grid coloured by its elite's fitness (empty cells blank; with more than 2 descriptor
+      dimensions the grid is unrolled into 2-D, dimensions 0, 2, 4, ... nested along x and 1, 3,
+      5, ... along y, the first of each the outermost), the coverage per value of each dimension
+      and the distribution of the elites' fitness.
+
 Exit codes: 0 success, 1 error, 2 usage error, 3 matplotlib or numpy missing.
 Needs Debian's python3-matplotlib and python3-numpy (scripts/install-deps).
 """
@@ -429,6 +436,117 @@ def plot_run(data_json, out):
             plot_gait(data, k, out)
 
 
+# ---------------------------------------------------------------- archives (IT&E)
+
+def read_archive(path):
+    """The archive file of drops (docs/ite.md): bins, descriptor names, the MAP-Elites line and
+    the elites' cells and fitness."""
+    info = {"bins": None, "names": None, "map_elites": {}, "task": "", "prior": ""}
+    cells, fitness = [], []
+    with open(path) as f:
+        lines = f.read().splitlines()
+    if not lines or lines[0].strip() != "# drops-map-elites-archive 1":
+        raise SystemExit(f"drops_plot.py: {path} is not a drops archive file")
+    i = 1
+    while i < len(lines) and lines[i].startswith("#"):
+        words = lines[i][1:].split()
+        if words and words[0] == "bins":
+            info["bins"] = [int(w) for w in words[1:]]
+        elif words and words[0] == "descriptor":
+            info["names"] = words[1:]
+        elif words and words[0] in ("task", "prior"):
+            info[words[0]] = " ".join(words[1:])
+        elif words and words[0] == "map_elites":
+            info["map_elites"] = {words[j]: int(words[j + 1]) for j in range(1, len(words) - 1, 2)}
+        i += 1
+    k = len(info["bins"])
+    for row in csv.reader(lines[i + 1:]):
+        if not row:
+            continue
+        cells.append([int(v) for v in row[:k]])
+        fitness.append(float(row[2 * k]))
+    if info["names"] is None:
+        info["names"] = [f"descriptor_{d}" for d in range(k)]
+    return info, np.array(cells, dtype=int).reshape(-1, k), np.array(fitness)
+
+
+def unrolled_index(cells, bins, dims):
+    """Position along one axis of the unrolled grid: dims nested, the first the outermost."""
+    index = np.zeros(len(cells), dtype=int)
+    for d in dims:
+        index = index * bins[d] + cells[:, d]
+    return index
+
+
+def plot_archive(archive_csv, output_png):
+    info, cells, fitness = read_archive(archive_csv)
+    bins, names = info["bins"], info["names"]
+    k = len(bins)
+    total = int(np.prod(bins))
+    xdims, ydims = list(range(0, k, 2)), list(range(1, k, 2))
+    width = int(np.prod([bins[d] for d in xdims]))
+    height = int(np.prod([bins[d] for d in ydims])) if ydims else 1
+    grid = np.full((height, width), np.nan)
+    if len(cells):
+        xs = unrolled_index(cells, bins, xdims)
+        ys = unrolled_index(cells, bins, ydims) if ydims else np.zeros(len(cells), dtype=int)
+        grid[ys, xs] = fitness
+
+    fig = plt.figure(figsize=(13, 6.2))
+    gs = fig.add_gridspec(2, 2, width_ratios=[1.5, 1], hspace=0.45, wspace=0.25)
+    ax = fig.add_subplot(gs[:, 0])
+    cmap = plt.get_cmap("viridis").copy()
+    cmap.set_bad("white")
+    image = ax.imshow(grid, origin="lower", cmap=cmap, interpolation="nearest", aspect="auto")
+    fig.colorbar(image, ax=ax, label="fitness (return on the prior)")
+    # Lines between the blocks of the outermost dimensions.
+    if len(xdims) > 1:
+        step = width // bins[xdims[0]]
+        for j in range(1, bins[xdims[0]]):
+            ax.axvline(j * step - 0.5, color="0.6", linewidth=0.6)
+    if len(ydims) > 1:
+        step = height // bins[ydims[0]]
+        for j in range(1, bins[ydims[0]]):
+            ax.axhline(j * step - 0.5, color="0.6", linewidth=0.6)
+    ax.set_xlabel(" > ".join(names[d] for d in xdims) + "  (outermost first)")
+    ax.set_ylabel(" > ".join(names[d] for d in ydims) + "  (outermost first)" if ydims else "")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    me = info["map_elites"]
+    what = ", ".join(filter(None, [info["task"], f"prior {info['prior']}" if info["prior"] else ""]))
+    title = f"{len(cells)} of {total} cells filled ({100.0 * len(cells) / total:.1f} %)"
+    if me.get("evaluations"):
+        title += f" after {me['evaluations']:,} evaluations"
+        if not me.get("complete", 1):
+            title += " (in progress)"
+    ax.set_title((what + "\n" if what else "") + title, fontsize=11)
+
+    # Coverage per value of each dimension: the fraction of the cells with that value filled.
+    axc = fig.add_subplot(gs[0, 1])
+    for d in range(k):
+        per_bin = total // bins[d]
+        counts = np.bincount(cells[:, d], minlength=bins[d]) if len(cells) else np.zeros(bins[d])
+        centres = (np.arange(bins[d]) + 0.5) / bins[d]
+        axc.plot(centres, 100.0 * counts / per_bin, marker="o", linewidth=1.2,
+                 color=COLORS[d % len(COLORS)], label=names[d])
+    axc.set_xlabel("descriptor value (bin centre)")
+    axc.set_ylabel("cells filled (%)")
+    axc.set_xlim(0, 1)
+    axc.legend(fontsize=8, ncol=2)
+    axc.set_title("coverage per descriptor value", fontsize=11)
+
+    axf = fig.add_subplot(gs[1, 1])
+    if len(fitness):
+        axf.hist(fitness, bins=40, color=COLORS[0])
+        axf.axvline(fitness.max(), color=COLORS[1], linestyle="--", linewidth=1,
+                    label=f"best {fitness.max():.3g}")
+        axf.legend(fontsize=8)
+    axf.set_xlabel("fitness (return on the prior)")
+    axf.set_ylabel("elites")
+    axf.set_title("fitness of the elites", fontsize=11)
+    save(fig, output_png)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -440,9 +558,14 @@ def main():
     run = sub.add_parser("run")
     run.add_argument("plot_data")
     run.add_argument("output_dir")
+    arch = sub.add_parser("archive")
+    arch.add_argument("archive_csv")
+    arch.add_argument("output_png")
     args = parser.parse_args()
     if args.command == "report":
         plot_report(args.table_csv, args.output_png, args.ylabel)
+    elif args.command == "archive":
+        plot_archive(args.archive_csv, args.output_png)
     else:
         plot_run(args.plot_data, args.output_dir)
 

@@ -191,6 +191,22 @@ TEST(ArchiveFile, HasTheDocumentedPreambleAndColumns) {
   EXPECT_EQ(file.str(), expected);
 }
 
+TEST(ArchiveFile, CommentsAreWrittenAfterTheBinningLineAndReadBack) {
+  Archive a(2, 4, 1);
+  a.insert(Vec({0.5}), -1.25, Vec({0.3, 0.9}));
+  std::stringstream file;
+  write_archive(file, a, {"task arm", "descriptor x y"});
+  EXPECT_NE(file.str().find("bins_d - 1)\n# task arm\n# descriptor x y\ncell_0"),
+            std::string::npos)
+      << file.str();
+  std::vector<std::string> comments;
+  const Archive b = read_archive(file, &comments);
+  EXPECT_TRUE(b == a);
+  EXPECT_EQ(comments, (std::vector<std::string>{"task arm", "descriptor x y"}));
+  std::stringstream bad;
+  EXPECT_THROW(write_archive(bad, a, {"two\nlines"}), InvalidArgument);
+}
+
 std::string ReadError(const std::string& text) {
   std::istringstream in(text);
   try {

@@ -312,4 +312,39 @@ TEST(MapElites, AReloadedArchiveContinuesExactlyLikeTheOriginal) {
   EXPECT_TRUE(original == reloaded);
 }
 
+TEST(MapElites, AStoppedRunContinuedFromItsCursorAndSavedArchiveEqualsAnUninterruptedRun) {
+  MapElitesOptions o;
+  o.max_evaluations = 3000;
+  o.batch_size = 100;
+  o.initial_population = 250;  // the stop below falls inside the initial population
+  o.crossover_rate = 0.3;
+  for (const int stop_after : {2, 9}) {
+    const Archive uninterrupted = RunArm(o, 2);
+    Archive first(2, 12, 6);
+    MapElitesCursor cursor;
+    std::stringstream file;
+    const auto s1 = run_map_elites(NoisyArm, VectorXd::Zero(6), VectorXd::Ones(6), o, first,
+                                   [&](const MapElitesProgress& p, const Archive& a) {
+                                     if (p.batch < stop_after) return true;
+                                     cursor = p.cursor;
+                                     write_archive(file, a);
+                                     return false;
+                                   });
+    EXPECT_EQ(s1.cursor.batches, stop_after);
+    EXPECT_EQ(s1.cursor.evaluations, cursor.evaluations);
+    Archive reloaded = read_archive(file);
+    const auto s2 =
+        run_map_elites(NoisyArm, VectorXd::Zero(6), VectorXd::Ones(6), o, reloaded, {}, &cursor);
+    EXPECT_EQ(s2.cursor.evaluations, 3000) << "the budget counts both calls";
+    EXPECT_EQ(s1.evaluations + s2.evaluations, 3000);
+    EXPECT_TRUE(reloaded == uninterrupted) << "stopped after batch " << stop_after;
+  }
+  MapElitesCursor bad;
+  bad.generations = -1;
+  Archive archive(2, 12, 6);
+  EXPECT_THROW(
+      run_map_elites(NoisyArm, VectorXd::Zero(6), VectorXd::Ones(6), o, archive, {}, &bad),
+      InvalidArgument);
+}
+
 }  // namespace

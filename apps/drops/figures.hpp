@@ -21,10 +21,18 @@ std::vector<std::filesystem::path> write_report(const experiment::CampaignReport
 
 /// `drops plot`: writes plot-data.json (experiment::write_plot_data) and draws returns.png,
 /// phi.png (when the run uses a prior), trajectories-NNN.png for each episode of `episodes`
-/// ("1,5,10"; empty = experiment::default_plot_episodes) and the task's own figures into `out_dir`.
+/// ("1,5,10"; empty = experiment::default_plot_episodes), the task's own figures and, for a run
+/// with an archive.csv (IT&E), archive.png into `out_dir`.
 /// Returns the files written. Throws ConfigError when `run_dir` is not a started run directory or
 /// the episode list is invalid, drops::Error when the run has no episode, a trajectory file is
 /// missing or python/matplotlib fails.
+/// Draws an IT&E archive file (experiment::read_archive_file's format) into `output_png`
+/// (its folder created if needed): the grid coloured by fitness, the coverage per descriptor value
+/// and the fitness distribution. Throws drops::Error when the file is not an archive or
+/// python/matplotlib fails.
+void plot_archive(const std::filesystem::path& archive_csv,
+                  const std::filesystem::path& output_png);
+
 std::vector<std::filesystem::path> plot_run(const experiment::Registry& registry,
                                             const std::filesystem::path& run_dir,
                                             const std::string& episodes,

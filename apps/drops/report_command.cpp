@@ -22,6 +22,7 @@
 #include <tuple>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/archive_file.hpp"
 
 extern char** environ;
 
@@ -146,6 +147,12 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
   return files;
 }
 
+void plot_archive(const fs::path& archive_csv, const fs::path& output_png) {
+  experiment::read_archive_file(archive_csv);  // a clear error for a file that is not one
+  if (!output_png.parent_path().empty()) create_output_dir(output_png.parent_path());
+  run_plot_script({"archive", archive_csv.string(), output_png.string()}, "drops plot");
+}
+
 std::vector<fs::path> plot_run(const Registry& registry, const fs::path& run_dir,
                                const std::string& episodes_text, const fs::path& out_dir) {
   if (!fs::is_directory(run_dir))
@@ -170,6 +177,8 @@ std::vector<fs::path> plot_run(const Registry& registry, const fs::path& run_dir
   const fs::path data = out_dir / "plot-data.json";
   write_plot_data(run, episodes, data);
   run_plot_script({"run", data.string(), out_dir.string()}, "drops plot");
+  if (fs::exists(run_dir / "archive.csv"))  // an IT&E run's MAP-Elites archive
+    plot_archive(run_dir / "archive.csv", out_dir / "archive.png");
   std::vector<fs::path> files = {data};
   for (const auto& e : fs::directory_iterator(out_dir))
     if (e.path().extension() == ".png") files.push_back(e.path());
@@ -209,6 +218,13 @@ struct PlotArgs {
 };
 
 int plot_main(const Registry& registry, const PlotArgs& args) {
+  if (fs::is_regular_file(args.run_dir)) {  // an archive file (IT&E)
+    const fs::path png = args.output.empty() ? fs::path(args.run_dir).replace_extension(".png")
+                                             : fs::path(args.output);
+    plot_archive(args.run_dir, png);
+    fmt::print("drops plot: {}\n  {}\n", args.run_dir, png.string());
+    return 0;
+  }
   const fs::path out =
       args.output.empty() ? fs::path(args.run_dir) / "plots" : fs::path(args.output);
   const std::vector<fs::path> files = plot_run(registry, args.run_dir, args.episodes, out);
@@ -242,12 +258,17 @@ void add_plot_command(CLI::App& app, Action& action, const Registry& registry) {
       "plot",
       "Figures of one run: returns.png, phi.png, trajectories-NNN.png (real vs predicted) and "
       "the task's metric (e.g. a walking speed), a body path and a gait diagram when the "
-      "trajectories hold body positions and foot heights");
-  sub->add_option("RUN_DIR", args->run_dir, "run directory written by drops run")->required();
+      "trajectories hold body positions and foot heights, and archive.png for an IT&E run; "
+      "given an archive file (e.g. a run's archive.csv), only its figure");
+  sub->add_option("RUN_DIR", args->run_dir,
+                  "run directory written by drops run, or an IT&E archive file")
+      ->required();
   sub->add_option("--episodes", args->episodes,
                   "episodes whose trajectories to draw, e.g. 1,5,10 (default: the first solved "
                   "and the last)");
-  sub->add_option("--output,-o", args->output, "where to write (default RUN_DIR/plots)");
+  sub->add_option("--output,-o", args->output,
+                  "where to write (default RUN_DIR/plots; for an archive file, the PNG file, "
+                  "default the archive's name with .png)");
   sub->callback([&action, &registry, args] {
     action = [&registry, args] { return plot_main(registry, *args); };
   });

@@ -88,11 +88,22 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
 
   install_interrupt_handler();
   auto last = std::chrono::steady_clock::now();
+  auto last_line = last;
   algo::Callbacks cb;
   cb.should_stop = [] { return interrupt_requested(); };
   cb.on_status = [&](const algo::Status& s) {
-    if (!live) return;
     const auto now = std::chrono::steady_clock::now();
+    if (s.phase == "archive" && !live && !quiet) {
+      // Without a terminal (a campaign's log), a line a minute while an archive is built.
+      if (now - last_line < std::chrono::seconds(60)) return;
+      last_line = now;
+      std::cerr << fmt::format("[{}] MAP-Elites on the prior: {}/{} evaluations, {} of the cells "
+                               "filled, best return {:.3f}\n",
+                               experiment::now_iso(), s.evaluations, s.budget,
+                               fmt::format("{:.1f} %", 100 * s.coverage), s.best);
+      return;
+    }
+    if (!live) return;
     if (now - last < std::chrono::milliseconds(100)) return;
     last = now;
     const std::string what =
@@ -101,6 +112,10 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
         : s.phase == "policy"
             ? fmt::format("policy search: {} evaluations, best return {:.2f}", s.evaluations,
                           s.best)
+        : s.phase == "archive"
+            ? fmt::format("MAP-Elites on the prior: {}/{} evaluations, {:.1f} % of the cells "
+                          "filled, best return {:.3f}",
+                          s.evaluations, s.budget, 100 * s.coverage, s.best)
             : std::string("running the episode");
     std::cerr << fmt::format("\r\033[K[episode {}/{}] {}", s.episode, episodes, what)
               << std::flush;
@@ -115,7 +130,12 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
         "model {:.1f} s  policy {:.1f} s  {} evals{}\n",
         r.episode, episodes, r.interaction_time, r.real_return, r.predicted_return,
         r.solved ? "yes" : "no ", phi_brief(r.phi, e.setup.prior_parameters), r.model_seconds,
-        r.policy_seconds, r.evaluations, r.selected == "start" ? "  (best policy kept)" : "");
+        r.policy_seconds, r.evaluations,
+        r.selected == "start" ? std::string("  (best policy kept)")
+        : r.details.count("cell")
+            ? fmt::format("  ({} cell {})", r.selected == "trial" ? "trial of" : "best tested",
+                          static_cast<long long>(r.details.at("cell")))
+            : std::string());
   };
   cb.on_state = [&](const algo::RunState& st) { dir->save_state(st); };
 

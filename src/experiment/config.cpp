@@ -52,7 +52,9 @@ std::vector<KeySpec> build_base_keys() {
        "first task of the drops command line); `drops config --markdown` lists each task's keys"});
   add({"algorithm", "string", "", 0, 0, {}, "-",
        "the learning algorithm: black_drops (Algorithm 1 with the model of model.type; the "
-       "default) or direct (CMA-ES on the real system itself, no model); empty = black_drops"});
+       "default), direct (CMA-ES on the real system itself, no model) or ite (IT&E: a MAP-Elites "
+       "archive on the prior, then Bayesian optimization over it on the real system); empty = "
+       "black_drops"});
   add({"seed", "int", num(static_cast<double>(d.seed)), 0, 4294967295.0, {}, "-",
        "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
   add({"episodes", "int", num(d.episodes), 1, 1000, {}, "-",
@@ -241,6 +243,8 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     return n.Scalar();
   }
   if (s.type == "enum") {
+    // An enum whose default depends on the task (empty default) may be left empty.
+    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
     if (!n.IsScalar() ||
         std::find(s.allowed.begin(), s.allowed.end(), n.Scalar()) == s.allowed.end())
       fail(s.key, text, "allowed values: " + joined(s.allowed));
@@ -479,6 +483,12 @@ void resolve_derived_defaults(const Registry& registry, Settings& settings) {
     if (!derived) continue;
     const auto t = shared.find(key);
     it->second = t != shared.end() ? t->second : fallback;
+  }
+  // Other keys with an empty default (an algorithm's, e.g. ite.evaluations) take the task's value
+  // when it gives one; otherwise they stay empty and their algorithm applies its own default.
+  for (const auto& [key, value] : shared) {
+    const auto it = settings.find(key);
+    if (it != settings.end() && it->second.empty()) it->second = value;
   }
   // A run's budget follows the total: a quarter of it (at least 4 runs per search).
   const auto run = settings.find("optimizer.run_evaluations");

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "drops/core/errors.hpp"
+#include "experiment_plugins.hpp"
 
 namespace drops::experiment {
 
@@ -155,6 +156,7 @@ class DirectPlugin final : public AlgorithmPlugin {
 void register_builtin_algorithms(Registry& registry) {
   registry.add_algorithm(std::make_unique<BlackDropsPlugin>());
   registry.add_algorithm(std::make_unique<DirectPlugin>());
+  registry.add_algorithm(make_ite_plugin());
 }
 
 std::string Experiment::default_run_name(const std::string& stamp) const {

@@ -16,6 +16,7 @@
 #include <set>
 #include <sstream>
 
+#include "drops/experiment/archive_file.hpp"
 #include "drops/experiment/campaign.hpp"
 #include "drops/experiment/registry.hpp"
 #include "sha256.hpp"
@@ -358,6 +359,11 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   }
   for (std::size_t i = 0; i < metrics.size() && i < setup.metric_names.size(); ++i)
     e[setup.metric_names[i]] = number(metrics[i]);
+  if (!rec.details.empty()) {
+    nlohmann::json details = nlohmann::json::object();
+    for (const auto& [k, v] : rec.details) details[k] = number(v);
+    e["details"] = details;
+  }
   summary_["episodes"].push_back(e);
   if (rec.solved && !summary_.contains("first_solved_episode"))
     summary_["first_solved_episode"] = rec.episode;
@@ -365,6 +371,25 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
 }
 
 void RunDirectory::save_state(const algo::RunState& st) {
+  // The archive first (archive.csv carries its own MAP-Elites cursor), then the checkpoint.
+  const auto& a = st.archive;
+  if (a.archive && (a.archive != written_archive_ || a.complete != written_complete_)) {
+    ArchiveFileInfo info = archive_file_info(experiment_.task, experiment_.setup);
+    info.complete = a.complete;
+    info.cursor = a.cursor;
+    write_archive_file(dir_ / "archive.csv", *a.archive, info);
+    written_archive_ = a.archive;  // held, so that its address is not reused
+    written_complete_ = a.complete;
+    summary_["archive"] = {{"file", "archive.csv"},
+                           {"complete", a.complete},
+                           {"cells", a.archive->size()},
+                           {"total_cells", a.archive->total_cells()},
+                           {"coverage", a.archive->coverage()},
+                           {"best_fitness", a.archive->empty() ? nlohmann::json(nullptr)
+                                                               : number(a.archive->best().fitness)},
+                           {"evaluations", a.cursor.evaluations}};
+    write_summary("running");
+  }
   nlohmann::json data_x = nlohmann::json::array(), data_u = nlohmann::json::array(),
                  data_dx = nlohmann::json::array();
   for (const auto& t : st.data) {
@@ -389,7 +414,7 @@ void RunDirectory::save_state(const algo::RunState& st) {
                             {"model_type", experiment_.variant},
                             {"episodes_done", st.episodes_done},
                             {"best_theta", to_std(st.best_theta)},
-                            {"best_return", st.best_return},
+                            {"best_return", number(st.best_return)},
                             {"first_solved_episode", st.first_solved_episode},
                             {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
                             {"extra", extra},
@@ -444,7 +469,9 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
     algo::RunState st;
     st.episodes_done = j.at("episodes_done").get<int>();
     st.best_theta = to_eigen(j.at("best_theta"), "best_theta");
-    st.best_return = j.at("best_return").get<double>();
+    // null: no episode yet (a state saved during an algorithm's preparation, e.g. IT&E's archive)
+    st.best_return = j.at("best_return").is_null() ? -std::numeric_limits<double>::infinity()
+                                                   : j.at("best_return").get<double>();
     st.first_solved_episode = j.at("first_solved_episode").get<int>();
     st.model.phi = to_eigen(j.at("model").at("phi"), "model.phi");
     for (const auto& h : j.at("model").at("h_params"))
@@ -461,9 +488,10 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
       st.data[i].u = to_eigen(d["u"][i], "data.u");
       st.data[i].dx = to_eigen(d["dx"][i], "data.dx");
     }
-    if (st.episodes_done < 1)
+    // 0 only for a state saved before the first episode, with an archive (IT&E; reopen checks).
+    if (st.episodes_done < 0)
       throw Error(cp.string() + ": episodes_done = " + std::to_string(st.episodes_done) +
-                  " (a checkpoint is written after an episode)");
+                  " (a checkpoint is written after an episode, or with IT&E's archive)");
     return st;
   } catch (const nlohmann::json::exception& e) {
     throw Error(cp.string() + " is malformed: " + e.what());
@@ -699,6 +727,29 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
         if (fs::exists(dir / rel)) rd->file_sha256_[rel] = sha256_hex(read_text(dir / rel));
       }
   }
+  // 5. archive.csv, for an algorithm that keeps an archive (IT&E). It is not among the checksums:
+  // it is written before checkpoint.json and carries its own MAP-Elites cursor, so one newer than
+  // the checkpoint (a crash between the two writes) is continued from, not refused; the reader
+  // checks every line of it.
+  if (fs::exists(dir / "archive.csv")) {
+    ArchiveFile file;
+    try {
+      file = read_archive_file(dir / "archive.csv");
+    } catch (const std::exception& ex) {
+      throw RunDirectoryDamaged(std::string(ex.what()) +
+                                ": restore the file or start the run again");
+    }
+    state->archive.archive = file.archive;
+    state->archive.complete = file.info.complete;
+    state->archive.cursor = file.info.cursor;
+    rd->written_archive_ = file.archive;
+    rd->written_complete_ = file.info.complete;
+  } else if (k == 0) {
+    throw RunDirectoryDamaged(cp_path.string() + " covers no episode and " +
+                              (dir / "archive.csv").string() +
+                              " is missing: restore the file or start the run again");
+  }
+
   std::vector<fs::path> later_folders;
   if (fs::exists(dir / "episodes"))
     for (const auto& entry : fs::directory_iterator(dir / "episodes"))
@@ -754,6 +805,11 @@ void RunDirectory::finish(const algo::RunSummary& s, const std::string& status,
                           {"restarts", s.search.restarts},
                           {"start_return", number(-s.search.start_value)},
                           {"best_theta", to_std(s.search.best_x)}};
+  }
+  if (!s.details.empty()) {
+    nlohmann::json details = nlohmann::json::object();
+    for (const auto& [k, v] : s.details) details[k] = number(v);
+    summary_["details"] = details;
   }
   if (!error.empty()) summary_["error"] = error;
   write_summary(status);

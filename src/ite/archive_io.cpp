@@ -72,7 +72,8 @@ std::string_view trim_cr(std::string_view s) {
 
 }  // namespace
 
-void write_archive(std::ostream& out, const Archive& archive) {
+void write_archive(std::ostream& out, const Archive& archive,
+                   const std::vector<std::string>& comments) {
   const int k = archive.descriptor_dim();
   std::string s;
   s += kMagic;
@@ -85,6 +86,11 @@ void write_archive(std::ostream& out, const Archive& archive) {
   s += std::to_string(archive.param_dim());
   s += '\n';
   s += "# binning floor: cell_d = min(floor(descriptor_d * bins_d), bins_d - 1)\n";
+  for (const std::string& c : comments) {
+    if (c.find_first_of("\n\r") != std::string::npos)
+      throw InvalidArgument("write_archive: a comment must be one line, got '" + c + "'");
+    s += "# " + c + "\n";
+  }
   s += column_header(k, archive.param_dim()) + "\n";
   out << s;
   for (const Elite& e : archive.elites()) {
@@ -106,7 +112,7 @@ void write_archive(std::ostream& out, const Archive& archive) {
   if (!out) throw Error("write_archive: the stream failed while writing the archive");
 }
 
-Archive read_archive(std::istream& in) {
+Archive read_archive(std::istream& in, std::vector<std::string>* comments) {
   std::string raw;
   long line = 0;
   if (!std::getline(in, raw) || trim_cr(raw) != kMagic) {
@@ -134,6 +140,10 @@ Archive read_archive(std::istream& in) {
       std::string w;
       if (!(words >> w)) fail(line, "expected '# param_dim <integer>'");
       param_dim = parse<int>(w, line, "an integer param_dim");
+    } else if (key != "binning" && comments != nullptr) {
+      std::string_view c = s.substr(1);
+      if (!c.empty() && c.front() == ' ') c.remove_prefix(1);
+      comments->emplace_back(c);
     }
   }
   if (!bins) fail(line, "expected a '# bins ...' line before the column header");

@@ -172,7 +172,8 @@ std::vector<Evaluation> evaluate_batch(const EvaluationFunction& evaluate,
 
 MapElitesSummary run_map_elites(const EvaluationFunction& evaluate, const VectorXd& lower,
                                 const VectorXd& upper, const MapElitesOptions& options,
-                                Archive& archive, const MapElitesCallback& callback) {
+                                Archive& archive, const MapElitesCallback& callback,
+                                const MapElitesCursor* resume) {
   const auto start_time = std::chrono::steady_clock::now();
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("MapElitesOptions: " + why);
@@ -190,12 +191,27 @@ MapElitesSummary run_map_elites(const EvaluationFunction& evaluate, const Vector
   const int k = archive.descriptor_dim();
   MapElitesSummary summary;
 
-  long initial_left = archive.empty() ? options.initial_population : 0;
-  long initial_index = 0;
-  long generation = 0;
+  MapElitesCursor cursor;
+  if (resume != nullptr) {
+    cursor = *resume;
+    if (cursor.evaluations < 0 || cursor.batches < 0 || cursor.generations < 0 ||
+        cursor.initial_drawn < 0 || cursor.initial_left < 0) {
+      throw InvalidArgument("run_map_elites: expected a cursor with counts >= 0, got evaluations " +
+                            std::to_string(cursor.evaluations) + ", batches " +
+                            std::to_string(cursor.batches) + ", generations " +
+                            std::to_string(cursor.generations) + ", initial " +
+                            std::to_string(cursor.initial_drawn) + " drawn and " +
+                            std::to_string(cursor.initial_left) + " left");
+    }
+  } else {
+    cursor.initial_left = archive.empty() ? options.initial_population : 0;
+  }
+  long& initial_left = cursor.initial_left;
+  long& initial_index = cursor.initial_drawn;
+  long& generation = cursor.generations;
   std::vector<VectorXd> thetas;
-  while (summary.evaluations < options.max_evaluations) {
-    const long room = options.max_evaluations - summary.evaluations;
+  while (cursor.evaluations < options.max_evaluations) {
+    const long room = options.max_evaluations - cursor.evaluations;
     thetas.clear();
     if (initial_left > 0 || archive.empty()) {
       // Initial population (also used again if no individual of it was valid).
@@ -226,14 +242,14 @@ MapElitesSummary run_map_elites(const EvaluationFunction& evaluate, const Vector
     }
 
     const std::vector<Evaluation> results =
-        evaluate_batch(evaluate, thetas, options.seed, summary.batches, options.parallel);
+        evaluate_batch(evaluate, thetas, options.seed, cursor.batches, options.parallel);
 
     MapElitesProgress progress;
     for (std::size_t j = 0; j < results.size(); ++j) {
       const Evaluation& r = results[j];
       if (r.descriptor.size() != k) {
         throw InvalidArgument("run_map_elites: evaluation " + std::to_string(j) + " of batch " +
-                              std::to_string(summary.batches) + ": expected a descriptor of size " +
+                              std::to_string(cursor.batches) + ": expected a descriptor of size " +
                               std::to_string(k) + ", got " + std::to_string(r.descriptor.size()));
       }
       if (!r.alive) {
@@ -263,12 +279,15 @@ MapElitesSummary run_map_elites(const EvaluationFunction& evaluate, const Vector
     }
     summary.evaluations += static_cast<long>(thetas.size());
     ++summary.batches;
+    cursor.evaluations += static_cast<long>(thetas.size());
+    ++cursor.batches;
     summary.new_cells += progress.batch_new_cells;
     summary.replacements += progress.batch_replacements;
 
     if (callback) {
       progress.evaluations = summary.evaluations;
       progress.batch = summary.batches;
+      progress.cursor = cursor;
       progress.filled = archive.size();
       progress.coverage = archive.coverage();
       progress.best_fitness =
@@ -280,6 +299,7 @@ MapElitesSummary run_map_elites(const EvaluationFunction& evaluate, const Vector
     }
   }
 
+  summary.cursor = cursor;
   summary.filled = archive.size();
   summary.coverage = archive.coverage();
   if (!archive.empty()) summary.best_fitness = archive.best().fitness;

@@ -165,6 +165,11 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
       std::ofstream(config) << drops::experiment::to_yaml(registry, runs.front().settings);
       // A hexapod episode is thousands of DART steps: a short horizon keeps the test small.
       if (runs.front().settings.at("task") == "hexapod") extra = " hexapod.horizon=20";
+      // IT&E: a small archive, and the archive cache (a path relative to where the campaign runs)
+      // under the test's directory.
+      if (runs.front().settings.at("algorithm") == "ite")
+        extra += " ite.evaluations=400 ite.batch=100 ite.initial_population=100"
+                 " ite.archive_cache=" + (out / "ite-archives").string();
     } else {
       ++experiments;
     }

@@ -221,6 +221,34 @@ TEST(Resume, RefusesWhatItCannotContinue) {
   fs::remove_all(out);
 }
 
+// IT&E killed in the middle of its archive's generation: the archive so far (archive.csv, with its
+// MAP-Elites cursor) and checkpoint.json (no episode yet) continue it to the same archive and the
+// same trials as an uninterrupted run.
+TEST(Resume, IteKilledWhileBuildingItsArchiveContinuesToTheSameArchiveAndTrials) {
+  const fs::path out = fresh_dir("ite");
+  const std::string ite =
+      "run algorithm=ite episodes=4 seed=2 threads=2 ite.evaluations=60000 ite.bins=4 "
+      "ite.stop_ratio=0 ite.checkpoint_minutes=0 --output " + out.string();
+  ASSERT_EQ(run(ite + " --name full -q"), 0);
+  const pid_t pid = spawn(ite + " --name part -q");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out / "part" / "checkpoint.json") &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before it could be killed";
+  ASSERT_EQ(episodes_in_checkpoint(out / "part"), 0) << "killed after its archive was complete";
+  EXPECT_NE(slurp(out / "part" / "archive.csv").find("# map_elites complete 0"), std::string::npos);
+  std::string err;
+  ASSERT_EQ(run("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  expect_same_episodes(out / "full", out / "part", 4);
+  EXPECT_EQ(slurp(out / "full" / "archive.csv"), slurp(out / "part" / "archive.csv"));
+  fs::remove_all(out);
+}
+
 #ifdef DROPS_WITH_HEXAPOD
 // The hexapod through `drops run`: its run directory (48-D states with named columns, foot heights,
 // walking speed and state-guard counts per episode), bit-identical results with 1 and 2 threads

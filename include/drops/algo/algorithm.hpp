@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "drops/ite/archive.hpp"
+#include "drops/ite/map_elites.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/opt/cmaes.hpp"
 #include "drops/policy/policy.hpp"
@@ -62,6 +64,20 @@ struct EpisodeRecord {
   double policy_seconds = 0;        ///< policy optimization time, s
   long evaluations = 0;             ///< policy evaluations that chose theta (model rollouts / rollouts per eval; 1 for a direct search)
   long nonfinite_model_steps = 0;   ///< rollout steps stopped by non-finite model predictions
+  /// Algorithm-specific values of this episode by name (e.g. IT&E's cell and the mean M-BOA
+  /// predicted for it); the run directory writes them in summary.json. May be empty.
+  std::map<std::string, double> details;
+};
+
+/// A MAP-Elites archive that an algorithm built, is building or was given (IT&E), with where its
+/// generation stands. The experiment layer saves it beside the checkpoint (the run directory's
+/// archive.csv), not inside checkpoint.json.
+struct ArchiveState {
+  std::shared_ptr<const ite::Archive> archive;  ///< null when the algorithm has none
+  /// True once the archive is final (MAP-Elites used its budget, or the archive was given).
+  bool complete = false;
+  /// Where the MAP-Elites run that builds it stands: with `archive`, what continues it exactly.
+  ite::MapElitesCursor cursor;
 };
 
 /// An algorithm between two episodes: everything the next episodes depend on. Every random stream
@@ -76,14 +92,22 @@ struct RunState {
   model::ModelState model;           ///< the model's warm starts after the last learn()
   /// Algorithm-specific vectors, by name (values stored exactly: 17 significant digits).
   std::map<std::string, VectorXd> extra;
+  /// The algorithm's MAP-Elites archive (IT&E), saved beside the checkpoint; empty otherwise. An
+  /// algorithm may hand out a state with episodes_done = 0 and an archive (IT&E during and after
+  /// its archive generation), so that a long generation is resumable too.
+  ArchiveState archive;
 };
 
 /// Live status for progress displays.
 struct Status {
   int episode = 0;                  ///< episode being prepared (1-based)
-  std::string phase;                ///< "model", "policy" or "episode"
+  std::string phase;                ///< "model", "policy", "archive" (MAP-Elites) or "episode"
   long evaluations = 0;             ///< evaluations in this phase so far
-  double best = 0;                  ///< best score in this phase (model score / predicted return)
+  /// Best score in this phase (model score / predicted return / best fitness in the archive).
+  double best = 0;
+  long budget = 0;                  ///< the phase's budget of evaluations when known (0: unknown)
+  /// Phase "archive": the filled fraction of the archive's cells, in [0, 1] (NaN otherwise).
+  double coverage = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Hooks through which the caller observes and steers a run. All are called on the caller's thread.
@@ -109,6 +133,9 @@ struct RunSummary {
   double seconds = 0;             ///< wall-clock time of this call, s
   /// The whole-run search of an algorithm that has one (the direct search); empty otherwise.
   opt::CmaesSummary search;
+  /// Algorithm-specific results by name (e.g. IT&E's archive coverage and trial count); the run
+  /// directory writes them in summary.json. May be empty.
+  std::map<std::string, double> details;
   /// One line: "12 episodes, best return 19.81, first solved at episode 4, 83.2 s".
   std::string BriefReport() const;
 };

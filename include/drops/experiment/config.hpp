@@ -80,7 +80,8 @@ Settings load_run_settings_file(const Registry& registry, const std::string& pat
 bool is_run_config(const std::string& path);
 
 /// Replaces the empty value of each key whose default depends on the task by the task's value
-/// (TaskPlugin::shared_defaults), and optimizer.run_evaluations by a quarter of
+/// (TaskPlugin::shared_defaults; base keys the task does not set get the base rule, algorithm
+/// keys stay empty), and optimizer.run_evaluations by a quarter of
 /// optimizer.max_evaluations, so that settings written before a default became task-dependent
 /// compare equal to today's. Leaves settings of an unknown task unchanged. Thread-safe.
 void resolve_derived_defaults(const Registry& registry, Settings& settings);

@@ -8,6 +8,7 @@
 
 #include "drops/algo/black_drops.hpp"
 #include "drops/algo/direct_search.hpp"
+#include "drops/algo/ite.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/registry.hpp"
 
@@ -40,6 +41,12 @@ Experiment make_experiment(const Registry& registry, const Settings& settings);
 /// The options of Algorithm 1 from settings (model.*, policy.bound, optimizer.*, rollouts.*,
 /// episodes, seed). Throws ConfigError when they are invalid (BlackDropsOptions::IsValid).
 algo::BlackDropsOptions black_drops_options(const Settings& settings);
+
+/// The options of IT&E from settings (ite.*, policy.bound, episodes, seed) and the task's
+/// behaviour descriptor (setup.behaviour); reads the archive file of ite.archive. Throws
+/// ConfigError naming the task when it has no behaviour descriptor, and naming the key for an
+/// invalid value or an archive file that cannot be read or does not fit the task.
+algo::IteOptions ite_options(const Settings& settings, const TaskSetup& setup);
 
 /// The CMA-ES options of the optimizer.* keys. Thread-safe.
 opt::CmaesOptions cmaes_options(const Settings& settings);

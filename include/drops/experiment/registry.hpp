@@ -15,6 +15,7 @@
 
 #include "drops/algo/algorithm.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/ite/behaviour.hpp"
 
 namespace drops::experiment {
 
@@ -76,6 +77,14 @@ struct TaskSetup {
   /// per name. May be empty.
   std::vector<std::string> state_extra_names;
   std::function<std::vector<double>(const VectorXd&)> state_extras;
+  /// The task's behaviour descriptor for IT&E's MAP-Elites archive, computed on episodes of the
+  /// prior at the starting phi (optional: empty when the task offers none, and algorithm=ite
+  /// then refuses the task).
+  ite::BehaviourDescriptor behaviour;
+  /// The task's keys that change only the real system, not the task, the policy family or the
+  /// prior (e.g. a robot's damage): settings that differ only in them share an IT&E archive
+  /// (ite.archive_cache). Empty: every task key is assumed to matter.
+  std::vector<std::string> real_system_keys;
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };
@@ -91,8 +100,9 @@ class TaskPlugin {
   /// The task's own keys (they exist only in experiments on this task). Each key must be new: no
   /// base or algorithm key, no other task's key.
   virtual std::vector<KeySpec> keys() const = 0;
-  /// Values of base keys whose default depends on the task (those with an empty default in
-  /// base_keys(), e.g. policy.bound, optimizer.max_evaluations); missing ones keep the base rule.
+  /// Values of keys whose default depends on the task (those with an empty default: base keys
+  /// such as policy.bound, optimizer.max_evaluations, and algorithm keys such as
+  /// ite.evaluations); missing ones keep the base rule (or the algorithm's own default).
   virtual std::map<std::string, std::string> shared_defaults() const { return {}; }
   /// Builds the task from validated settings. Throws ConfigError naming the key when the settings
   /// describe something impossible.
@@ -163,7 +173,8 @@ class Registry {
 };
 
 /// Registers the algorithms of drops::core: "black_drops" (Black-DROPS and its variants, by
-/// model.type; the default) and "direct" (the direct search on the real system).
+/// model.type; the default), "direct" (the direct search on the real system) and "ite" (IT&E:
+/// MAP-Elites on the prior, M-BOA on the real system; tasks with a behaviour descriptor).
 void register_builtin_algorithms(Registry& registry);
 
 }  // namespace drops::experiment

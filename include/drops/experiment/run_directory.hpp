@@ -15,6 +15,8 @@
 ///     checkpoint.json             the algorithm's state after the last finished episode (--resume),
 ///                                 with what it covers: the resolved configuration and SHA-256
 ///                                 checksums of the recorded files and of itself (format 2)
+///     archive.csv                 IT&E: the MAP-Elites archive (archive_file.hpp), saved with the
+///                                 state that holds it, before checkpoint.json
 ///     .lock                       flock()ed by the process writing the directory
 
 #include <cstdint>
@@ -85,8 +87,9 @@ class RunDirectory {
                                                      const std::string& config_yaml,
                                                      const Experiment& experiment);
 
-  /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json into
-  /// *state and checks the directory against it, then removes what was recorded after it.
+  /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json (and
+  /// archive.csv, when there is one, into state->archive) into *state and checks the directory
+  /// against it, then removes what was recorded after it.
   /// experiment must be the one of DIR/config.yaml (with the episodes= and threads= of the resumed
   /// session); config_yaml is to_yaml of its settings, written to DIR/config.yaml when it differs
   /// (so that the file says the new episode count and `drops run DIR/config.yaml` repeats the run).
@@ -95,9 +98,11 @@ class RunDirectory {
   /// own checksum; every key of the configuration the run was started with is in config.yaml with
   /// the same value (episodes and threads aside); the first episodes_done rows of episodes.csv,
   /// the first episodes_done entries of summary.json's "episodes" and every file of episodes/NNN
-  /// up to episodes_done have the checksums recorded in the checkpoint. A run directory written
-  /// before (format 1) gets structural checks: the rows and summary entries 1..episodes_done are
-  /// present and whole; its checksums are taken from the files as they are at this resume.
+  /// up to episodes_done have the checksums recorded in the checkpoint; archive.csv, which carries
+  /// its own MAP-Elites cursor and may be newer than the checkpoint, is checked by its reader
+  /// (RunDirectoryDamaged naming the file and line). A run directory written before (format 1)
+  /// gets structural checks: the rows and summary entries 1..episodes_done are present and whole;
+  /// its checksums are taken from the files as they are at this resume.
   ///
   /// Repairs (listed by repairs()): rows of episodes.csv after episodes_done (also a last row cut
   /// mid-line by a crash), summary entries of later episodes and episodes/NNN folders of later
@@ -118,14 +123,17 @@ class RunDirectory {
   /// rec.keep_trajectories), then appends its row and rewrites summary.json.
   void record(const algo::EpisodeRecord& rec);
   /// Writes checkpoint.json (atomically): doubles in the shortest form that reads back exactly,
-  /// so a resumed run is bit-identical to an uninterrupted one.
+  /// so a resumed run is bit-identical to an uninterrupted one. When the state holds an archive
+  /// that was not written yet (another one, or now complete), writes it first as archive.csv
+  /// (with its MAP-Elites cursor) and records it in summary.json ("archive").
   void save_state(const algo::RunState& state);
   /// Rewrites summary.json with the final status ("complete", "interrupted" or "failed").
   void finish(const algo::RunSummary& summary, const std::string& status,
               const std::string& error = "");
   const std::filesystem::path& path() const { return dir_; }
-  /// True when checkpoint.json holds a finished episode: the run can be continued with
-  /// `drops run --resume` (false until the first save_state() of a new run).
+  /// True when checkpoint.json exists: the run can be continued with `drops run --resume` (false
+  /// until the first save_state() of a new run, which comes after the first finished episode or,
+  /// for IT&E, while its archive is being built).
   bool has_checkpoint() const { return has_checkpoint_; }
   /// What reopen() removed or rewrote, one sentence each (empty for a new run).
   const std::vector<std::string>& repairs() const { return repairs_; }
@@ -138,6 +146,8 @@ class RunDirectory {
   void write_summary(const std::string& status);
   int lock_fd_ = -1;
   double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
+  std::shared_ptr<const ite::Archive> written_archive_;  ///< last written to archive.csv
+  bool written_complete_ = false;                  ///< whether it was complete then
   bool has_checkpoint_ = false;
   std::filesystem::path dir_;
   const Experiment& experiment_;

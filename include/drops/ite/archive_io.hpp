@@ -17,18 +17,25 @@
 
 #include <istream>
 #include <ostream>
+#include <string>
+#include <vector>
 
 #include "drops/ite/archive.hpp"
 
 namespace drops::ite {
 
-/// Writes `archive` in the format above. Throws Error when the stream fails. Thread-safe for
-/// distinct streams (the archive is only read).
-void write_archive(std::ostream& out, const Archive& archive);
+/// Writes `archive` in the format above, with `comments` (one line each, written "# <comment>"
+/// after the binning line; e.g. what the descriptor and the fitness are). Throws Error when the
+/// stream fails, InvalidArgument when a comment holds a line break. Thread-safe for distinct
+/// streams (the archive is only read).
+void write_archive(std::ostream& out, const Archive& archive,
+                   const std::vector<std::string>& comments = {});
 
 /// Reads an archive written by write_archive. Every row is checked (field count, integers, finite
 /// reals, cell indices in range, the descriptor binning into its cell under the floor convention,
-/// no cell twice); a bad file throws InvalidArgument naming the line and what was expected.
-Archive read_archive(std::istream& in);
+/// no cell twice); a bad file throws InvalidArgument naming the line and what was expected. The
+/// preamble's other comment lines (all but bins, param_dim and binning), without their "# ", are
+/// appended to *comments when it is not null.
+Archive read_archive(std::istream& in, std::vector<std::string>* comments = nullptr);
 
 }  // namespace drops::ite

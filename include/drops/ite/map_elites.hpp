@@ -101,6 +101,21 @@ enum class MapElitesTermination {
   kCallback,        ///< the callback asked to stop
 };
 
+/// Where a MAP-Elites run stands after a batch: everything besides the archive that its next
+/// batches depend on. Giving run_map_elites the cursor of a run that stopped (and the archive as
+/// it was then, e.g. saved and read back) continues it exactly: the same batches, streams and
+/// archive as an uninterrupted run (tested).
+struct MapElitesCursor {
+  long evaluations = 0;   ///< evaluations done so far (counted against max_evaluations), >= 0
+  int batches = 0;        ///< batches done (the batch index of the evaluation streams), >= 0
+  long generations = 0;   ///< generations of offspring done (the variation streams' index), >= 0
+  long initial_drawn = 0; ///< random individuals drawn so far (the initial streams' index), >= 0
+  /// Random individuals still to draw before the first generation (>= 0; the initial population
+  /// minus initial_drawn for a run that began with an empty archive, 0 for one that continued an
+  /// archive).
+  long initial_left = 0;
+};
+
 /// Result of run_map_elites (counts are for this call).
 struct MapElitesSummary {
   long evaluations = 0;    ///< evaluations performed (initial population included)
@@ -116,6 +131,9 @@ struct MapElitesSummary {
   double best_fitness = -std::numeric_limits<double>::infinity();  ///< best elite at the end
   double seconds = 0;                                              ///< wall-clock time of the call
   MapElitesTermination termination = MapElitesTermination::kMaxEvaluations;
+  /// Where the run stands at its end (for run_map_elites' `resume`): evaluations counts every
+  /// call of the run, not only this one.
+  MapElitesCursor cursor;
   /// One line, e.g. "map-elites: 100000 evaluations, 338 cells (84.5%), best -1.2e-05, 0 dead,
   /// 0 invalid, 0 out of range, 0.06 s (MaxEvaluations)".
   std::string BriefReport() const;
@@ -130,6 +148,9 @@ struct MapElitesProgress {
   double best_fitness = 0;      ///< best elite's fitness
   long batch_new_cells = 0;     ///< cells filled by this batch
   long batch_replacements = 0;  ///< elites replaced by this batch
+  /// Where the run stands after this batch (with the archive passed to the callback, what
+  /// continues the run exactly; cursor.evaluations counts every call of the run).
+  MapElitesCursor cursor;
 };
 
 /// Called after each batch has been inserted, with the archive as it now is (e.g. to save a
@@ -144,15 +165,20 @@ using MapElitesCallback = std::function<bool(const MapElitesProgress&, const Arc
 ///     cells, crossed (SBX) with probability crossover_rate, each child mutated gene by gene;
 ///  3. each batch is evaluated (in parallel), then inserted in order under options.insertion; dead,
 ///     invalid and out-of-range individuals are counted and never inserted;
-/// until max_evaluations or the callback stops it. Variation of pair p in generation g draws from
+/// until max_evaluations or the callback stops it. With `resume` (the cursor of a run with the same
+/// options that stopped, MapElitesProgress::cursor or MapElitesSummary::cursor, and `archive` as it
+/// was then), the run continues exactly where it stopped, max_evaluations counting the
+/// evaluations of every call. Variation of pair p in generation g draws from
 /// derive_seed(seed, {kVariationStream, g, p}), initial individual i from derive_seed(seed,
 /// {kInitialStream, i}): the archive is identical whatever the thread count. A non-empty archive is
 /// continued (give another seed to avoid repeating the streams of the run that built it).
-/// Throws InvalidArgument on invalid options, sizes or bounds, or a descriptor of the wrong size;
+/// Throws InvalidArgument on invalid options, sizes or bounds, a cursor with negative counts, or a
+/// descriptor of the wrong size;
 /// rethrows what `evaluate` throws (the archive then holds the batches inserted before).
 /// Source: Mouret & Clune 2015; sferes2 map_elites as described in baselines.md §3a.
 MapElitesSummary run_map_elites(const EvaluationFunction& evaluate, const VectorXd& lower,
                                 const VectorXd& upper, const MapElitesOptions& options,
-                                Archive& archive, const MapElitesCallback& callback = nullptr);
+                                Archive& archive, const MapElitesCallback& callback = nullptr,
+                                const MapElitesCursor* resume = nullptr);
 
 }  // namespace drops::ite

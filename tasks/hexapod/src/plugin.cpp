@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "drops/core/errors.hpp"
+#include "drops/hexapod/ite_descriptor.hpp"
 #include "drops/hexapod/policy.hpp"
 #include "drops/hexapod/prior.hpp"
 #include "drops/hexapod/real_robot.hpp"
@@ -65,6 +66,9 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          {}, "rad", "the angle the blocked joint is held at (within its limits)"});
     add({"hexapod.noise", "bool", "true", 0, 0, {}, "-",
          "measurement noise on the real robot's state (motion capture, encoders)"});
+    add({"hexapod.ite.contact_height", "double", "0.005", 0, 0.2, {}, "m",
+         "IT&E's duty-factor descriptor: a foot touches the ground when its lowest point is at "
+         "most this high (docs/ite.md)"});
     add({"hexapod.guard", "enum", "stop", 0, 0, {"stop", "clamp"}, "-",
          "what the prior does with an implausible predicted state (non-finite, beyond joint "
          "limits, body height out of range): stop that rollout, or clamp the state and go on; "
@@ -80,7 +84,14 @@ class HexapodPlugin final : public experiment::TaskPlugin {
             {"optimizer.max_evaluations", "2000"},
             {"optimizer.reevaluation_rollouts", "20"},
             {"model.rprop.max_length_scale_ratio", "10"},
-            {"model.rprop.penalty", "on"}};
+            {"model.rprop.penalty", "on"},
+            // IT&E: the reference archive's genotype (36 genes on 21 levels, each re-drawn with
+            // probability 0.05); returns of good gaits lie in [0, 2.5] like the reference's
+            // metres, so M-BOA's reference kernel and kappa apply unscaled (docs/ite.md).
+            {"ite.mutation", "resample"},
+            {"ite.mutation_rate", "0.05"},
+            {"ite.performance_scale", "1"},
+            {"ite.evaluations", "400000"}};
   }
 
   experiment::TaskSetup make(const Settings& st) const override {
@@ -165,6 +176,28 @@ class HexapodPlugin final : public experiment::TaskPlugin {
       *last = c;
       return v;
     };
+
+    // IT&E's behaviour descriptor: the duty factor on the prior (the starting removed leg), the
+    // turned-over robots discarded (docs/ite.md).
+    auto& b = s.behaviour;
+    for (int k = 0; k < kNumLegs; ++k) b.names.push_back(fmt::format("duty_leg{}", k));
+    b.bins.assign(kNumLegs, 5);  // 5^6 = 15,625 cells, the reference grid
+    DutyFactorOptions df;
+    df.contact_height = get_double(st, "hexapod.ite.contact_height");
+    b.describe = [prior, prior_start, df](const rollout::Trajectory& tr) {
+      return duty_factor(tr, prior->pool(prior_start), df);
+    };
+    const double tilt_limit = to.tilt_limit;
+    b.alive = [tilt_limit](const rollout::Trajectory& tr) { return stayed_upright(tr, tilt_limit); };
+    b.doc = fmt::format(
+        "duty factor: per leg, the fraction of the {} states x_1..x_H (one per {} s) at which the "
+        "foot is at most {} m above the ground on the prior; a removed leg 0; episodes in which "
+        "the body tilted {:.0f} degrees or more are discarded",
+        to.horizon, to.dt, df.contact_height, to.tilt_limit * 180 / 3.14159265358979323846);
+    s.real_system_keys = {"hexapod.damage.removed_leg",   "hexapod.damage.shortened_leg",
+                          "hexapod.damage.tibia_factor",  "hexapod.damage.blocked_leg",
+                          "hexapod.damage.blocked_joint", "hexapod.damage.blocked_angle",
+                          "hexapod.noise"};
 
     // Foot heights of the real robot's body for the gait diagram (drops plot).
     for (int k = 0; k < kNumLegs; ++k)

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/pendubot/ite_descriptor.hpp"
 #include "drops/pendubot/pendubot.hpp"
 #include "drops/policy/policy.hpp"
 
@@ -15,6 +16,8 @@ using experiment::KeySpec;
 using experiment::Settings;
 
 const std::vector<std::string> kParams = {"m1", "m2", "l1", "l2", "b1", "b2"};
+/// IT&E's grid: cells per dimension of the 6-D tip descriptor (docs/ite.md, the study).
+constexpr int kIteBinsPerDimension = 5;
 /// Table I's priors in the paper's order (the report's panels A-D), then the actual system.
 const std::vector<std::string> kPanelOrder = {"tunable-useful", "tunable", "tunable-misleading",
                                               "partially-tunable", "actual"};
@@ -159,6 +162,19 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     s.prior_label = prior_label(st);
     s.state_names = {"dtheta1", "dtheta2", "theta1", "theta2"};
     s.action_names = {"u"};
+
+    // IT&E's behaviour descriptor: the tip at 3 equally spaced times (paper §V-A), with the
+    // lengths of the prior the archive is built on (docs/ite.md).
+    const double l1 = p.values[2], l2 = p.values[3];
+    auto& b = s.behaviour;
+    b.names = {"tip_x_1", "tip_y_1", "tip_x_2", "tip_y_2", "tip_x_3", "tip_y_3"};
+    b.bins.assign(6, kIteBinsPerDimension);
+    b.describe = [l1, l2](const rollout::Trajectory& tr) { return tip_descriptor(tr, l1, l2); };
+    const auto steps = tip_descriptor_steps(s.task->horizon());
+    b.doc = "tip position (x, y) at steps " + std::to_string(steps[0]) + ", " +
+            std::to_string(steps[1]) + " and " + std::to_string(steps[2]) +
+            ", each coordinate as (p + L) / 2L with L = l1 + l2 of the prior";
+    for (const auto& n : kParams) s.real_system_keys.push_back("system." + n);
     return s;
   }
 

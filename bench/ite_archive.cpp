@@ -1,0 +1,87 @@
+// IT&E's archive generation: MAP-Elites on a task's prior exactly as `drops run algorithm=ite`
+// builds it (experiment::ite_options, algo::prior_evaluation), timed, with the archive's coverage
+// after every `every` evaluations. A plain program, not a Google Benchmark: what it measures is a
+// curve (coverage against evaluations) and a rate (evaluations per second).
+//
+//   build/bench/ite_archive TASK EVALUATIONS EVERY [key=value ...]
+//   build/bench/ite_archive pendubot 200000 10000 threads=2
+//   build/bench/ite_archive hexapod 40000 2000 threads=2
+//
+// Prints one CSV row per report: evaluations, seconds (wall clock since the start),
+// evaluations_per_s (over the last interval), filled, coverage, best_fitness; then a summary line
+// on stderr. docs/benchmarks.md ("IT&E archive generation") holds the measured tables.
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "drops/algo/ite.hpp"
+#include "drops/core/parallel.hpp"
+#include "drops/core/rng.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/pendubot/plugin.hpp"
+#ifdef DROPS_WITH_HEXAPOD
+#include "drops/hexapod/plugin.hpp"
+#endif
+
+using namespace drops;
+
+int main(int argc, char** argv) {
+  if (argc < 4) {
+    std::cerr << "usage: ite_archive TASK EVALUATIONS EVERY [key=value ...]\n";
+    return 2;
+  }
+  use_single_threaded_blas();
+  experiment::Registry registry;
+  experiment::register_builtin_algorithms(registry);
+  pendubot::register_task(registry);
+#ifdef DROPS_WITH_HEXAPOD
+  hexapod::register_task(registry);
+#endif
+  const long evaluations = std::atol(argv[2]);
+  const long every = std::atol(argv[3]);
+  std::vector<std::string> overrides = {std::string("task=") + argv[1], "algorithm=ite",
+                                        "ite.evaluations=" + std::to_string(evaluations)};
+  for (int i = 4; i < argc; ++i) overrides.emplace_back(argv[i]);
+  const auto e =
+      experiment::make_experiment(registry, experiment::load_settings(registry, "", overrides));
+  ThreadLimit limit(e.threads);
+  const algo::IteOptions o = experiment::ite_options(e.settings, e.setup);
+  const algo::Problem problem = e.setup.problem();
+  const int n = problem.policy->param_dim();
+  ite::Archive archive(o.bins.empty() ? o.behaviour.bins : o.bins, n);
+  ite::MapElitesOptions mo = o.map_elites;
+  mo.seed = derive_seed(o.seed, {algo::kIteArchiveStream});  // as algo::Ite does
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last_t = t0;
+  long last_e = 0, next = every;
+  std::cout << "evaluations,seconds,evaluations_per_s,filled,coverage,best_fitness\n";
+  auto report = [&](const ite::MapElitesProgress& p, const ite::Archive& a, bool force) {
+    if (p.cursor.evaluations < next && !force) return;
+    next = (p.cursor.evaluations / every + 1) * every;
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - t0).count();
+    const double ds = std::chrono::duration<double>(now - last_t).count();
+    std::cout << fmt::format("{},{:.2f},{:.1f},{},{:.6f},{:.6g}\n", p.cursor.evaluations, s,
+                             (p.cursor.evaluations - last_e) / ds, a.size(), a.coverage(),
+                             p.best_fitness)
+              << std::flush;
+    last_t = now;
+    last_e = p.cursor.evaluations;
+  };
+  const auto summary = ite::run_map_elites(
+      algo::prior_evaluation(problem, o.behaviour), VectorXd::Constant(n, -o.theta_bound),
+      VectorXd::Constant(n, o.theta_bound), mo, archive,
+      [&](const ite::MapElitesProgress& p, const ite::Archive& a) {
+        report(p, a, p.cursor.evaluations >= evaluations);
+        return true;
+      });
+  std::cerr << fmt::format("{} on {} (prior {}), {} threads: {:.1f} evaluations/s\n",
+                           summary.BriefReport(), e.task, e.setup.prior_label,
+                           e.threads ? e.threads : hardware_threads(),
+                           summary.evaluations / summary.seconds);
+  return 0;
+}
