@@ -22,6 +22,7 @@ bool LbfgsOptions::IsValid(std::string* why) const {
   if (!(ftol_abs >= 0)) return fail("ftol_abs must be >= 0");
   if (!(xtol_rel >= 0)) return fail("xtol_rel must be >= 0");
   if (memory < 0) return fail("memory must be >= 0");
+  if (max_restarts < 0) return fail("max_restarts must be >= 0");
   if (lower.size() != upper.size()) return fail("lower and upper must have the same size");
   for (Eigen::Index i = 0; i < lower.size(); ++i)
     if (std::isnan(lower[i]) || std::isnan(upper[i]) || lower[i] > upper[i])
@@ -49,8 +50,8 @@ const char* to_string(LbfgsTermination t) {
 }
 
 std::string LbfgsSummary::BriefReport() const {
-  return fmt::format("L-BFGS: {:.6g} -> {:.6g} in {} evaluations ({}), {:.1f} s", initial_value,
-                     value, evaluations, to_string(termination), seconds);
+  return fmt::format("L-BFGS: {:.6g} -> {:.6g} in {} evaluations, {} restarts ({}), {:.1f} s",
+                     initial_value, value, evaluations, restarts, to_string(termination), seconds);
 }
 
 namespace {
@@ -155,7 +156,6 @@ LbfgsSummary lbfgs_minimize(const GradientObjective& f, const Eigen::VectorXd& x
     if (r < 0) throw InvalidArgument(std::string("lbfgs_minimize: NLopt refused ") + what);
   };
   check(nlopt_set_min_objective(opt.get(), trampoline, &c), "the objective");
-  check(nlopt_set_maxeval(opt.get(), options.max_evaluations), "max_evaluations");
   check(nlopt_set_ftol_rel(opt.get(), options.ftol_rel), "ftol_rel");
   check(nlopt_set_ftol_abs(opt.get(), options.ftol_abs), "ftol_abs");
   check(nlopt_set_xtol_rel(opt.get(), options.xtol_rel), "xtol_rel");
@@ -165,10 +165,22 @@ LbfgsSummary lbfgs_minimize(const GradientObjective& f, const Eigen::VectorXd& x
     check(nlopt_set_lower_bounds(opt.get(), options.lower.data()), "the lower bounds");
     check(nlopt_set_upper_bounds(opt.get(), options.upper.data()), "the upper bounds");
   }
-  Eigen::VectorXd x = x0;
-  double fx = 0.0;
-  const nlopt_result r = nlopt_optimize(opt.get(), x.data(), &fx);
-  if (c.error) std::rethrow_exception(c.error);
+  // One L-BFGS run, then restarts from the best point after a failed line search (see
+  // LbfgsOptions::max_restarts). The budget and the counts run over every run.
+  nlopt_result r = NLOPT_FAILURE;
+  for (;;) {
+    const double before = s.value;
+    Eigen::VectorXd x = s.x;
+    double fx = 0.0;
+    check(nlopt_set_maxeval(opt.get(), options.max_evaluations - s.evaluations), "max_evaluations");
+    r = nlopt_optimize(opt.get(), x.data(), &fx);
+    if (c.error) std::rethrow_exception(c.error);
+    const bool failed = r == NLOPT_FAILURE || r == NLOPT_ROUNDOFF_LIMITED;
+    if (!failed || c.stopped || c.nonfinite || c.budget || s.restarts >= options.max_restarts ||
+        !(s.value < before))
+      break;
+    ++s.restarts;
+  }
   s.nlopt_result = nlopt_result_to_string(r);
   if (c.stopped)
     s.termination = LbfgsTermination::kStopped;

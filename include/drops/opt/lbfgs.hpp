@@ -27,6 +27,12 @@ struct LbfgsOptions {
   /// Number of stored correction pairs (>= 0; 0 = NLopt's choice, min(n, 10) by default in
   /// NLopt 2.7; PILCO's minimize uses min(100, n) in its LBFGS mode).
   int memory = 0;
+  /// After a failed line search (NLopt's FAILURE or ROUNDOFF_LIMITED, e.g. on an objective whose
+  /// round-off noise hides the decrease of very short steps), restart from the best point with
+  /// the memory cleared (the next step is along the steepest descent, as Rasmussen's minimize.m
+  /// does after a failed line search), at most this many times (>= 0) and only while each run
+  /// improves f. The budget is shared by the runs.
+  int max_restarts = 0;
   /// Box bounds (dim n each, lower <= upper; may hold +-inf), or empty for none.
   Eigen::VectorXd lower, upper;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
@@ -63,10 +69,11 @@ struct LbfgsSummary {
   double value = std::numeric_limits<double>::infinity();           ///< f(x)
   double initial_value = std::numeric_limits<double>::quiet_NaN();  ///< f(x0)
   int evaluations = 0;                                              ///< objective calls
+  int restarts = 0;  ///< restarts after failed line searches (LbfgsOptions::max_restarts)
   LbfgsTermination termination = LbfgsTermination::kFailure;
   std::string nlopt_result;  ///< NLopt's result code, e.g. "FTOL_REACHED"
   double seconds = 0;        ///< wall-clock time, s
-  /// One line: "L-BFGS: 12.3 -> 4.56 in 150 evaluations (max_evaluations), 3.2 s".
+  /// One line: "L-BFGS: 12.3 -> 4.56 in 150 evaluations, 2 restarts (max_evaluations), 3.2 s".
   std::string BriefReport() const;
 };
 
