@@ -238,3 +238,41 @@ TEST(Lbfgs, ARestartThatDoesNotImproveEndsTheSearch) {
   EXPECT_LT(s.evaluations, 2000);
   EXPECT_NEAR(s.value, 0.25, 1e-6);  // f(1, 0.5, 0.5, 0.5, 0.5), the minimum at the kink
 }
+
+TEST(Lbfgs, ScalingTheFirstStepFindsTheNarrowValleyOfASaturatingCost) {
+  // sum_i 1 - exp(-(x_i - 1)^2 / w^2), w = 1e-3, from x_i = 1 + w / 2 (|g| ~ 1.7e3, like PILCO's
+  // J on the pendubot): NLopt's first trial step -g lands on the flat part, 10 reductions do not
+  // come back to the valley and the search fails at the start (measured: f stays 1.106 after 12
+  // evaluations). With the first step of minimize.m, it converges (measured: 6 evaluations).
+  const double w = 1e-3;
+  auto f = [&](const VectorXd& x, VectorXd* g) {
+    double v = 0;
+    if (g) g->resize(x.size());
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      const double d = x[i] - 1, e = std::exp(-d * d / (w * w));
+      v += 1 - e;
+      if (g) (*g)[i] = 2 * d / (w * w) * e;
+    }
+    return v;
+  };
+  const VectorXd x0 = VectorXd::Constant(5, 1 + 0.5 * w);
+  LbfgsOptions o;
+  o.max_evaluations = 200;
+  const auto plain = drops::opt::lbfgs_minimize(f, x0, o);
+  EXPECT_EQ(plain.termination, LbfgsTermination::kFailure) << plain.BriefReport();
+  EXPECT_EQ(plain.value, plain.initial_value);
+  o.scale_first_step = true;
+  const auto scaled = drops::opt::lbfgs_minimize(f, x0, o);
+  EXPECT_LT(scaled.value, 1e-12) << scaled.BriefReport();
+  EXPECT_LT((scaled.x.array() - 1).abs().maxCoeff(), 1e-6);
+  // The values and gradients reported are f's, not the scaled ones.
+  EXPECT_NEAR(scaled.initial_value, plain.initial_value, 1e-15);
+  // The start is evaluated once for the scale and not again by NLopt.
+  int calls = 0;
+  auto counted = [&](const VectorXd& x, VectorXd* g) {
+    ++calls;
+    return f(x, g);
+  };
+  const auto c = drops::opt::lbfgs_minimize(counted, x0, o);
+  EXPECT_EQ(calls, c.evaluations);
+}

@@ -69,50 +69,69 @@ struct Context {
   bool nonfinite = false;
   bool budget = false;  // max_evaluations reached (NLopt's own check comes only between iterations)
   int max_evaluations = 0;
+  double scale = 1.0;       // NLopt sees f / scale (LbfgsOptions::scale_first_step)
+  Eigen::VectorXd best_g;   // the gradient at the best point
+  bool serve_best = false;  // the next call at exactly summary->x is answered from memory
   Eigen::VectorXd x, g;
+  bool halted() const { return error || stopped || nonfinite || budget; }
 };
+
+/// One evaluation of f at c.x (value returned, gradient in c.g): counted, the best point kept,
+/// the progress reported, the stopping rules applied. Exceptions propagate.
+double evaluate(Context& c) {
+  c.g.resize(0);
+  const double v = (*c.f)(c.x, &c.g);
+  if (c.g.size() != c.n)
+    throw InvalidArgument(fmt::format(
+        "lbfgs_minimize: the objective's gradient: expected size {}, got {}", c.n, c.g.size()));
+  LbfgsSummary& s = *c.summary;
+  ++s.evaluations;
+  if (s.evaluations == 1) s.initial_value = v;
+  if (!std::isfinite(v) || !c.g.allFinite()) {
+    c.nonfinite = true;
+    return v;
+  }
+  if (v < s.value) {
+    s.value = v;
+    s.x = c.x;
+    c.best_g = c.g;
+  }
+  if (*c.on_evaluation && !(*c.on_evaluation)(LbfgsProgress{s.evaluations, v, s.value}))
+    c.stopped = true;
+  else if (s.evaluations >= c.max_evaluations)
+    c.budget = true;
+  return v;
+}
 
 double trampoline(unsigned n, const double* x, double* grad, void* data) {
   auto* c = static_cast<Context*>(data);
-  // NLopt's L-BFGS notices a forced stop only between its own steps: later calls cost nothing.
-  if (c->error || c->stopped || c->nonfinite || c->budget) {
+  auto zero = [&] {
     if (grad != nullptr)
       for (unsigned i = 0; i < n; ++i) grad[i] = 0.0;
-    return c->summary->value;
+  };
+  // NLopt's L-BFGS notices a forced stop only between its own steps: later calls cost nothing.
+  if (c->halted()) {
+    zero();
+    return c->summary->value / c->scale;
   }
   try {
     c->x = Eigen::Map<const Eigen::VectorXd>(x, n);
-    c->g.resize(0);
-    const double v = (*c->f)(c->x, &c->g);
-    if (c->g.size() != c->n)
-      throw InvalidArgument(fmt::format(
-          "lbfgs_minimize: the objective's gradient: expected size {}, got {}", c->n, c->g.size()));
-    LbfgsSummary& s = *c->summary;
-    ++s.evaluations;
-    if (s.evaluations == 1) s.initial_value = v;
-    if (!std::isfinite(v) || !c->g.allFinite()) {
-      c->nonfinite = true;
-      nlopt_force_stop(c->opt);
-      return v;
+    double v;
+    if (c->serve_best && c->x == c->summary->x) {
+      // A run's first call at the point whose value and gradient are known already.
+      v = c->summary->value;
+      c->g = c->best_g;
+    } else {
+      v = evaluate(*c);
     }
-    if (v < s.value) {
-      s.value = v;
-      s.x = c->x;
-    }
-    if (grad != nullptr) Eigen::Map<Eigen::VectorXd>(grad, n) = c->g;
-    if (*c->on_evaluation && !(*c->on_evaluation)(LbfgsProgress{s.evaluations, v, s.value})) {
-      c->stopped = true;
-      nlopt_force_stop(c->opt);
-    } else if (s.evaluations >= c->max_evaluations) {
-      c->budget = true;
-      nlopt_force_stop(c->opt);
-    }
-    return v;
+    c->serve_best = false;
+    if (c->halted()) nlopt_force_stop(c->opt);
+    if (grad != nullptr) Eigen::Map<Eigen::VectorXd>(grad, n) = c->g / c->scale;
+    return v / c->scale;
   } catch (...) {
     c->error = std::current_exception();
     nlopt_force_stop(c->opt);
-    if (grad != nullptr)
-      for (unsigned i = 0; i < n; ++i) grad[i] = 0.0;
+    zero();
     return 0.0;
   }
 }
@@ -157,7 +176,6 @@ LbfgsSummary lbfgs_minimize(const GradientObjective& f, const Eigen::VectorXd& x
   };
   check(nlopt_set_min_objective(opt.get(), trampoline, &c), "the objective");
   check(nlopt_set_ftol_rel(opt.get(), options.ftol_rel), "ftol_rel");
-  check(nlopt_set_ftol_abs(opt.get(), options.ftol_abs), "ftol_abs");
   check(nlopt_set_xtol_rel(opt.get(), options.xtol_rel), "xtol_rel");
   if (options.memory > 0)
     check(nlopt_set_vector_storage(opt.get(), static_cast<unsigned>(options.memory)), "memory");
@@ -167,18 +185,32 @@ LbfgsSummary lbfgs_minimize(const GradientObjective& f, const Eigen::VectorXd& x
   }
   // One L-BFGS run, then restarts from the best point after a failed line search (see
   // LbfgsOptions::max_restarts). The budget and the counts run over every run.
+  if (options.scale_first_step) {  // the start's gradient sets the first run's scale
+    c.x = x0;
+    try {
+      evaluate(c);
+    } catch (...) {
+      c.error = std::current_exception();
+    }
+    if (c.error) std::rethrow_exception(c.error);
+  }
   nlopt_result r = NLOPT_FAILURE;
-  for (;;) {
+  while (!c.halted()) {
     const double before = s.value;
     Eigen::VectorXd x = s.x;
     double fx = 0.0;
-    check(nlopt_set_maxeval(opt.get(), options.max_evaluations - s.evaluations), "max_evaluations");
+    if (options.scale_first_step && s.evaluations > 0 && std::isfinite(s.value)) {
+      c.scale = 1.0 + c.best_g.squaredNorm();
+      c.serve_best = true;
+    }
+    check(nlopt_set_ftol_abs(opt.get(), options.ftol_abs / c.scale), "ftol_abs");
+    check(nlopt_set_maxeval(opt.get(),
+                            options.max_evaluations - s.evaluations + (c.serve_best ? 1 : 0)),
+          "max_evaluations");
     r = nlopt_optimize(opt.get(), x.data(), &fx);
     if (c.error) std::rethrow_exception(c.error);
     const bool failed = r == NLOPT_FAILURE || r == NLOPT_ROUNDOFF_LIMITED;
-    if (!failed || c.stopped || c.nonfinite || c.budget || s.restarts >= options.max_restarts ||
-        !(s.value < before))
-      break;
+    if (!failed || c.halted() || s.restarts >= options.max_restarts || !(s.value < before)) break;
     ++s.restarts;
   }
   s.nlopt_result = nlopt_result_to_string(r);

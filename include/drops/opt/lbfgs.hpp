@@ -33,6 +33,13 @@ struct LbfgsOptions {
   /// does after a failed line search), at most this many times (>= 0) and only while each run
   /// improves f. The budget is shared by the runs.
   int max_restarts = 0;
+  /// NLopt's L-BFGS tries the full step -g at the start of a run and gives up after 10 reductions
+  /// (by about 3 each): on a steep objective (|g| = 1e3) no step is ever tried short enough. When
+  /// set, each run minimises f / (1 + |g0|^2) instead (g0 the gradient at the run's start; the
+  /// start is evaluated once more for it, before the first run), so that the first trial step
+  /// has length |g0| / (1 + |g0|^2), the first step of Rasmussen's minimize.m. Apart from that
+  /// first step L-BFGS does not depend on the scale of f; values and gradients reported are f's.
+  bool scale_first_step = false;
   /// Box bounds (dim n each, lower <= upper; may hold +-inf), or empty for none.
   Eigen::VectorXd lower, upper;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
