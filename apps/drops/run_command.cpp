@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 
@@ -89,6 +91,13 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
     const auto now = std::chrono::steady_clock::now();
     if (now - last < std::chrono::milliseconds(100)) return;
     last = now;
+    if (s.phase == "simulation") {  // PILCO with priors, before the real episodes
+      std::cerr << fmt::format("\r\033[K[simulation phase, episode {}] policy search: {} "
+                               "evaluations, predicted return {:.2f}",
+                               s.episode, s.evaluations, s.best)
+                << std::flush;
+      return;
+    }
     const std::string what =
         s.phase == "model"
             ? fmt::format("learning model: {} phi evaluations, score {:.2f}", s.evaluations, s.best)
@@ -112,6 +121,18 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
         r.policy_seconds, r.evaluations, r.selected == "start" ? "  (best policy kept)" : "");
   };
   cb.on_state = [&](const algo::RunState& st) { dir->save_state(st); };
+  cb.on_phase = [&](const algo::PhaseRecord& p) {
+    dir->record_phase(p);
+    if (live) std::cerr << "\r\033[K";
+    if (quiet) return;
+    const auto number = [&](const char* k) {
+      const auto it = p.summary.numbers.find(k);
+      return it == p.summary.numbers.end() ? std::nan("") : it->second;
+    };
+    std::cerr << fmt::format("{} phase: {} episodes, last return {:.2f} (predicted {:.2f}), {:.1f} s\n",
+                             p.name, p.episodes.size(), number("last_return"),
+                             number("last_predicted_return"), number("seconds"));
+  };
 
   algo::RunSummary summary;
   try {
@@ -127,7 +148,7 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
                            summary.interrupted ? "interrupted" : "done", summary.BriefReport(),
                            dir->path().string());
   if (summary.interrupted) {
-    if (e.runner->resumable() && summary.episodes_done > 0)
+    if (e.runner->resumable() && std::filesystem::exists(dir->path() / "checkpoint.json"))
       std::cerr << "continue it with: drops run --resume " << dir->path().string() << "\n";
     else if (e.runner->resumable())
       std::cerr << "no episode finished: start the run again (remove " << dir->path().string()

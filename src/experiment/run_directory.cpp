@@ -41,6 +41,14 @@ VectorXd to_eigen(const nlohmann::json& j, const std::string& what) {
 
 nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
+/// An algorithm's details as a JSON object (non-finite numbers as null).
+nlohmann::json details_json(const algo::Details& d) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : d.numbers) j[k] = number(v);
+  for (const auto& [k, v] : d.texts) j[k] = v;
+  return j;
+}
+
 std::string read_text(const fs::path& path) {
   std::ifstream in(path);
   if (!in) throw Error("cannot read " + path.string());
@@ -273,9 +281,19 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   }
   for (std::size_t i = 0; i < metrics.size() && i < setup.metric_names.size(); ++i)
     e[setup.metric_names[i]] = number(metrics[i]);
+  if (!rec.details.empty()) e["details"] = details_json(rec.details);
   summary_["episodes"].push_back(e);
   if (rec.solved && !summary_.contains("first_solved_episode"))
     summary_["first_solved_episode"] = rec.episode;
+  write_summary("running");
+}
+
+void RunDirectory::record_phase(const algo::PhaseRecord& phase) {
+  nlohmann::json p = details_json(phase.summary);
+  nlohmann::json eps = nlohmann::json::array();
+  for (const auto& d : phase.episodes) eps.push_back(details_json(d));
+  p["episodes"] = eps;
+  summary_["phases"][phase.name] = p;
   write_summary("running");
 }
 

@@ -80,6 +80,10 @@ class RunDirectory {
   /// Writes every file of one finished episode (trajectories and policy only when
   /// rec.keep_trajectories), then appends its row and rewrites summary.json.
   void record(const algo::EpisodeRecord& rec);
+  /// Records a phase that is not a real episode (e.g. PILCO with priors' simulation phase) in
+  /// summary.json under "phases".<name> (its summary's numbers and texts, and "episodes": one
+  /// object per episode of the phase), replacing an earlier record of the same name.
+  void record_phase(const algo::PhaseRecord& phase);
   /// Writes checkpoint.json (atomically): doubles in the shortest form that reads back exactly,
   /// so a resumed run is bit-identical to an uninterrupted one.
   void save_state(const algo::RunState& state);
