@@ -10,11 +10,13 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "drops/algo/algorithm.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/pilco/task_model.hpp"
 
 namespace drops::experiment {
 
@@ -76,6 +78,10 @@ struct TaskSetup {
   /// per name. May be empty.
   std::vector<std::string> state_extra_names;
   std::function<std::vector<double>(const VectorXd&)> state_extras;
+  /// What PILCO needs beyond the task (angles, inputs of the policy and the GP in PILCO's
+  /// augmented space, the cost's target and distance, Sigma_0): tasks that PILCO can run on fill
+  /// it; without it, algorithm=pilco and pilco_prior are refused with a ConfigError.
+  std::optional<pilco::TaskModel> pilco;
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };
