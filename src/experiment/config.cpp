@@ -51,7 +51,8 @@ std::vector<KeySpec> build_base_keys() {
        "first task of the drops command line); `drops config --markdown` lists each task's keys"});
   add({"algorithm", "string", "", 0, 0, {}, "-",
        "the learning algorithm: black_drops (Algorithm 1 with the model of model.type; the "
-       "default) or direct (CMA-ES on the real system itself, no model); empty = black_drops"});
+       "default), direct (CMA-ES on the real system itself, no model), pilco or pilco_prior "
+       "(PILCO and PILCO with priors, keys pilco.*); empty = black_drops"});
   add({"seed", "int", num(static_cast<double>(d.seed)), 0, 4294967295.0, {}, "-",
        "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
   add({"episodes", "int", num(d.episodes), 1, 1000, {}, "-",

@@ -8,6 +8,7 @@
 
 #include "drops/algo/black_drops.hpp"
 #include "drops/algo/direct_search.hpp"
+#include "drops/algo/pilco.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/registry.hpp"
 
@@ -40,6 +41,10 @@ Experiment make_experiment(const Registry& registry, const Settings& settings);
 /// The options of Algorithm 1 from settings (model.*, policy.bound, optimizer.*, rollouts.*,
 /// episodes, seed). Throws ConfigError when they are invalid (BlackDropsOptions::IsValid).
 algo::BlackDropsOptions black_drops_options(const Settings& settings);
+
+/// The options of PILCO (with_prior false) or PILCO with priors from settings (pilco.*, episodes,
+/// seed). Throws ConfigError when they are invalid (PilcoOptions::IsValid). Thread-safe.
+algo::PilcoOptions pilco_options(const Settings& settings, bool with_prior);
 
 /// The CMA-ES options of the optimizer.* keys. Thread-safe.
 opt::CmaesOptions cmaes_options(const Settings& settings);

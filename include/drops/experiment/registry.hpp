@@ -169,7 +169,8 @@ class Registry {
 };
 
 /// Registers the algorithms of drops::core: "black_drops" (Black-DROPS and its variants, by
-/// model.type; the default) and "direct" (the direct search on the real system).
+/// model.type; the default), "direct" (the direct search on the real system), "pilco" and
+/// "pilco_prior" (PILCO and PILCO with priors, on tasks with TaskSetup::pilco; keys pilco.*).
 void register_builtin_algorithms(Registry& registry);
 
 }  // namespace drops::experiment
