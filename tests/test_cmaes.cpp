@@ -82,33 +82,67 @@ TEST(Cmaes, SolvesRosenbrock10D) {
   EXPECT_LE((s.best_x - VectorXd::Ones(10)).cwiseAbs().maxCoeff(), 1e-3);
 }
 
+// BIPOP's restarts find the global optimum of 10-D Rastrigin, in at least 4 of 5 independent runs.
+// The claim is over seeds because one run is a chaotic trajectory: a change in the last bit of the
+// covariance's eigendecomposition or products (Eigen hands them to OpenBLAS/LAPACKE, whose
+// rounding depends on its thread count and on the CPU's kernels) leads to another run. Measured
+// with this budget on seeds 1-60: 59 solved with OpenBLAS on one thread (the test main's setting,
+// use_single_threaded_blas) and 59 with two OpenBLAS threads; the failures (seed 38 on one thread,
+// seed 6 on two) ended at a local minimum f = 0.995 with the budget spent. Seed 7, the one seed
+// this test used to run, takes 243,001 evaluations on one OpenBLAS thread and 42,273 on two. With
+// p = 0.98 per run, 3 or fewer of 5 happen with probability about 0.4 %.
 TEST(Cmaes, BipopSolvesRastrigin10D) {
   const int n = 10;
   drops::Rng rng(2024);
   VectorXd x0(n);
   for (int i = 0; i < n; ++i) x0(i) = rng.uniform(-5.0, 5.0);
+  int solved = 0;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    CmaesOptions opt;
+    opt.sigma0 = 2.0;
+    opt.max_evaluations = 400000;
+    opt.max_restarts = 9;
+    opt.stop_fitness = 1e-6;
+    opt.seed = seed;
+    std::vector<int> lambdas;
+    const auto s = cmaes_minimize([](const VectorXd& x, std::uint64_t) { return Rastrigin(x); },
+                                  x0, VectorXd::Constant(n, -5.0), VectorXd::Constant(n, 5.0), opt,
+                                  [&](const CmaesProgress& p) {
+                                    if (lambdas.empty() || lambdas.back() != p.lambda)
+                                      lambdas.push_back(p.lambda);
+                                    return true;
+                                  });
+    std::string trace;
+    for (int l : lambdas) trace += std::to_string(l) + " ";
+    SCOPED_TRACE("seed " + std::to_string(seed) + ": " + s.BriefReport() + " lambdas: " + trace);
+    EXPECT_EQ(static_cast<int>(s.run_stop_reasons.size()), s.restarts + 1);
+    // The global optimum (0, ..., 0), not a local one (local minima are near integer points != 0).
+    const bool global = s.best_value < 1e-5 && s.best_x.cwiseAbs().maxCoeff() < 1e-3;
+    if (!global) continue;
+    ++solved;
+    EXPECT_EQ(s.termination, CmaesTermination::kStopFitness);
+    EXPECT_GE(s.restarts, 1);  // a single default-population run does not solve Rastrigin
+  }
+  EXPECT_GE(solved, 4);
+}
+
+// A run's budget below its population (here 7 < lambda = 10) still gives each run one generation:
+// before, every run ended before its first and the search evaluated nothing (issue 18: `drops
+// direct --evaluations 30` recorded no episode).
+TEST(Cmaes, ARunBudgetBelowThePopulationStillEvaluatesAGenerationPerRun) {
   CmaesOptions opt;
-  opt.sigma0 = 2.0;
-  opt.max_evaluations = 400000;
-  opt.max_restarts = 9;
-  opt.stop_fitness = 1e-6;
-  opt.seed = 7;
-  std::vector<int> lambdas;
-  const auto s = cmaes_minimize([](const VectorXd& x, std::uint64_t) { return Rastrigin(x); }, x0,
-                                VectorXd::Constant(n, -5.0), VectorXd::Constant(n, 5.0), opt,
-                                [&](const CmaesProgress& p) {
-                                  if (lambdas.empty() || lambdas.back() != p.lambda)
-                                    lambdas.push_back(p.lambda);
-                                  return true;
-                                });
-  std::string trace;
-  for (int l : lambdas) trace += std::to_string(l) + " ";
-  EXPECT_LT(s.best_value, 1e-5) << s.BriefReport() << " lambdas: " << trace;
-  EXPECT_EQ(s.termination, CmaesTermination::kStopFitness);
-  EXPECT_GE(s.restarts, 1);  // a single default-population run does not solve Rastrigin
-  // The global optimum (0, ..., 0), not a local one (local minima are near integer points != 0).
-  EXPECT_LT(s.best_x.cwiseAbs().maxCoeff(), 1e-3) << s.best_x.transpose();
-  EXPECT_EQ(static_cast<int>(s.run_stop_reasons.size()), s.restarts + 1);
+  opt.sigma0 = 1.0;
+  opt.lambda = 10;
+  opt.max_evaluations = 30;
+  opt.max_run_evaluations = 7;
+  const auto s = cmaes_minimize([](const VectorXd& x, std::uint64_t) { return x.squaredNorm(); },
+                                VectorXd::Constant(4, 1.0), VectorXd::Constant(4, -5.0),
+                                VectorXd::Constant(4, 5.0), opt);
+  EXPECT_GE(s.evaluations, 10) << s.BriefReport();
+  EXPECT_LE(s.evaluations, 30) << s.BriefReport();
+  ASSERT_FALSE(s.runs.empty());
+  EXPECT_EQ(s.runs.front().evaluations, 10);
+  EXPECT_EQ(s.runs.front().generations, 1);
 }
 
 TEST(Cmaes, IpopDoublesPopulation) {

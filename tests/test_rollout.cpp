@@ -2,6 +2,8 @@
 // the thread count.
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include "drops/core/parallel.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
@@ -91,4 +93,85 @@ TEST(Rollout, SamplingChangesReturnsAndMeanPropagationIsDeterministic) {
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, a);
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, other, o, b);
   EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0);
+}
+
+namespace {
+/// A 1-D toy: x climbs by 1 per step (whatever the action) until it reaches `top`, where it
+/// stays; reward x per step. With `absorbing`, x >= top is declared absorbing.
+class Climb final : public rollout::Task {
+ public:
+  Climb(double top, bool absorbing) : top_(top), absorbing_(absorbing) {}
+  std::string name() const override { return "climb"; }
+  int state_dim() const override { return 1; }
+  int action_dim() const override { return 1; }
+  int observation_dim() const override { return 1; }
+  int horizon() const override { return 10; }
+  double dt() const override { return 1; }
+  VectorXd initial_state() const override { return VectorXd::Zero(1); }
+  void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override { obs = x; }
+  double reward(const VectorXd& x) const override { return x[0]; }
+  bool solved(const rollout::Trajectory&) const override { return false; }
+  bool absorbing(const VectorXd& x) const override { return absorbing_ && x[0] >= top_; }
+
+ private:
+  double top_;
+  bool absorbing_;
+};
+
+/// dx = 1 below the top, 0 at it; counts the rows it is asked to predict.
+class ClimbModel final : public model::DynamicsModel {
+ public:
+  explicit ClimbModel(double top) : top_(top) {}
+  model::ModelType type() const override { return model::ModelType::kGp; }
+  model::ModelSummary learn(const std::vector<Transition>&, const model::ModelProgress&) override {
+    return {};
+  }
+  void predict(const VectorXd& x, const VectorXd&, Prediction& out) const override {
+    out.mean = VectorXd::Constant(1, x[0] >= top_ ? 0.0 : 1.0);
+    out.var = VectorXd::Zero(1);
+  }
+  void predict_batch(const MatrixXd& X, const MatrixXd&, MatrixXd& mean,
+                     MatrixXd& var) const override {
+    rows += X.rows();
+    mean.resize(X.rows(), 1);
+    var = MatrixXd::Zero(X.rows(), 1);
+    for (Eigen::Index b = 0; b < X.rows(); ++b) mean(b, 0) = X(b, 0) >= top_ ? 0.0 : 1.0;
+  }
+  VectorXd phi() const override { return {}; }
+  model::ModelState state() const override { return {}; }
+  void restore(const model::ModelState&) override {}
+  mutable std::atomic<long> rows{0};
+
+ private:
+  double top_;
+};
+}  // namespace
+
+// An absorbing state ends a rollout early with the return it would have had: the climb reaches
+// the top (3) at step 3 and stays; declared absorbing, the rollout stops there, adds 3 for each of
+// the 7 remaining steps, and the model predicts 3 steps of it instead of 10.
+TEST(Rollout, AnAbsorbingStateEndsTheRolloutWithTheSameReturnAndFewerPredictions) {
+  policy::NeuralNetPolicyOptions po;
+  po.observation_dim = 1;
+  po.hidden_units = 2;
+  policy::NeuralNetPolicy pol(po);
+  const std::vector<VectorXd> thetas(3, VectorXd::Zero(pol.param_dim()));
+  const std::vector<std::uint64_t> seeds = {1, 2, 3};
+  rollout::RolloutOptions ro;
+  ro.sample = false;
+  ro.batch = 2;  // a batch of 2 lanes and one of 1
+  VectorXd plain, absorbed;
+  ClimbModel m1(3), m2(3);
+  rollout::RolloutStats s1, s2;
+  rollout::evaluate_policies(Climb(3, false), m1, pol, thetas, seeds, ro, plain, &s1);
+  rollout::evaluate_policies(Climb(3, true), m2, pol, thetas, seeds, ro, absorbed, &s2);
+  const double expected = 1 + 2 + 3 * 8;  // x = 1, 2, then 3 for the remaining 8 steps
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(plain[k], expected);
+    EXPECT_DOUBLE_EQ(absorbed[k], expected);
+  }
+  EXPECT_EQ(m1.rows.load(), 3 * 10);
+  EXPECT_EQ(m2.rows.load(), 3 * 3);
+  EXPECT_EQ(s1.absorbed, 0);
+  EXPECT_EQ(s2.absorbed, 3);
 }

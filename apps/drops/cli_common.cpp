@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <signal.h>
 
 #include "drops/core/errors.hpp"
 
@@ -12,10 +13,12 @@ namespace {
 
 std::atomic<int> g_interrupts{0};
 
-extern "C" void on_sigint(int) {
+// SIGINT (Ctrl-C) and SIGTERM (kill, a batch system's time limit) alike: the first asks the run to
+// stop after its current step, a second one ends the process at once with that signal.
+extern "C" void on_stop_signal(int sig) {
   if (g_interrupts.fetch_add(1) >= 1) {
-    std::signal(SIGINT, SIG_DFL);
-    std::raise(SIGINT);
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
   }
 }
 
@@ -45,9 +48,26 @@ experiment::Settings settings_from(const experiment::Registry& registry, const s
              : experiment::load_settings_file(registry, file, overrides);
 }
 
+experiment::Experiment make_experiment_from(const experiment::Registry& registry,
+                                            const experiment::Settings& settings,
+                                            const std::string& source) {
+  try {
+    return experiment::make_experiment(registry, settings);
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    if (source.empty() || what.rfind(source + ":", 0) == 0) throw;
+    throw ConfigError(source + ": " + what);
+  }
+}
+
 void install_interrupt_handler() {
   g_interrupts = 0;
-  std::signal(SIGINT, on_sigint);
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
 }
 
 bool interrupt_requested() { return g_interrupts.load() > 0; }

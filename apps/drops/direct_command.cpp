@@ -9,7 +9,7 @@
 namespace drops::app {
 
 int run_experiment(const experiment::Registry& registry, const experiment::Settings& settings,
-                   const std::string& resume_dir, bool quiet);
+                   const std::string& source, const std::string& resume_dir, bool quiet);
 
 namespace {
 
@@ -34,7 +34,7 @@ int direct_main(const experiment::Registry& registry, const DirectArgs& a) {
   if (!a.start.empty()) overrides.push_back("direct.start=" + a.start);
   if (!a.output.empty()) overrides.push_back("output=" + a.output);
   if (!a.name.empty()) overrides.push_back("name=" + a.name);
-  return run_experiment(registry, settings_from(registry, file, overrides), "", a.quiet);
+  return run_experiment(registry, settings_from(registry, file, overrides), file, "", a.quiet);
 }
 
 }  // namespace

@@ -33,30 +33,35 @@ struct RunArgs {
   std::vector<std::string> args;
   std::optional<std::uint64_t> seed;
   std::optional<int> threads;
-  std::string output, name, resume;
+  std::string output, name;
+  std::optional<std::string> resume;  ///< --resume DIR (given, even empty: an error)
   bool quiet = false;
 };
 
 }  // namespace
 
-/// Runs the experiment of `settings` (or continues the run in `resume_dir`), with the progress
-/// display of `drops run`. Shared by `drops run` and `drops direct`.
+/// Runs the experiment of `settings` (read from the configuration file `source`, empty: none), or
+/// continues the run in `resume_dir`, with the progress display of `drops run`. Shared by
+/// `drops run` and `drops direct`.
 int run_experiment(const experiment::Registry& registry, const experiment::Settings& settings,
-                   const std::string& resume_dir, bool quiet) {
-  const experiment::Experiment e = experiment::make_experiment(registry, settings);
+                   const std::string& source, const std::string& resume_dir, bool quiet) {
+  const experiment::Experiment e = make_experiment_from(registry, settings, source);
   ThreadLimit threads(e.threads);
   const bool resuming = !resume_dir.empty();
   std::unique_ptr<experiment::RunDirectory> dir;
   algo::RunState state;
+  const std::string config_yaml = experiment::to_yaml(registry, e.settings);
   try {
     if (resuming) {
-      dir = experiment::RunDirectory::reopen(resume_dir, e, &state);
+      dir = experiment::RunDirectory::reopen(resume_dir, e, config_yaml, &state);
+    } else if (e.name.empty()) {
+      // A default name holds the time to the second: a run started in the same second by another
+      // process gets "-2", "-3", ... appended.
+      dir = experiment::RunDirectory::create_unique(
+          e.output, e.default_run_name(experiment::local_timestamp()), config_yaml, e);
     } else {
-      const std::string name =
-          e.name.empty() ? e.default_run_name(experiment::local_timestamp()) : e.name;
-      dir = std::make_unique<experiment::RunDirectory>(std::filesystem::path(e.output) / name,
-                                                       experiment::to_yaml(registry, e.settings),
-                                                       e);
+      dir = std::make_unique<experiment::RunDirectory>(std::filesystem::path(e.output) / e.name,
+                                                       config_yaml, e);
     }
   } catch (const experiment::RunDirectoryBusy& ex) {
     std::cerr << "drops: " << ex.what() << "\n";
@@ -70,6 +75,7 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
                            episodes, e.seed, e.threads ? e.threads : hardware_threads());
   std::cerr << "run directory: " << dir->path().string() << "\n";
   if (resuming) {
+    for (const auto& r : dir->repairs()) std::cerr << "resume: " << r << "\n";
     std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done, episodes);
     if (state.episodes_done >= episodes) {
       algo::RunSummary done;
@@ -148,10 +154,15 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
                            summary.interrupted ? "interrupted" : "done", summary.BriefReport(),
                            dir->path().string());
   if (summary.interrupted) {
-    if (e.runner->resumable() && std::filesystem::exists(dir->path() / "checkpoint.json"))
+    // The hint only when --resume will accept the directory: a checkpoint exists.
+    if (e.runner->resumable() && dir->has_checkpoint())
       std::cerr << "continue it with: drops run --resume " << dir->path().string() << "\n";
     else if (e.runner->resumable())
-      std::cerr << "no episode finished: start the run again (remove " << dir->path().string()
+      std::cerr << "no episode finished, so there is nothing to continue: start the run again "
+                   "(and remove " << dir->path().string() << ")\n";
+    else
+      std::cerr << "algorithm '" << e.algorithm << "' cannot be resumed: start it again (its "
+                << summary.episodes_done << " recorded episodes stay in " << dir->path().string()
                 << ")\n";
   }
   return summary.interrupted ? 130 : 0;
@@ -166,8 +177,11 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
   if (a.threads) overrides.push_back("threads=" + std::to_string(*a.threads));
 
   experiment::Settings settings;
-  const bool resuming = !a.resume.empty();
+  std::string source = file;
+  const bool resuming = a.resume.has_value();
   if (resuming) {
+    if (a.resume->empty())
+      throw ConfigError("--resume needs the run directory to continue, got an empty path");
     if (!file.empty())
       throw ConfigError("--resume takes the run directory's own config.yaml; drop '" + file + "'");
     if (a.seed || !a.output.empty() || !a.name.empty())
@@ -178,17 +192,20 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
       if (key != "episodes" && key != "threads")
         throw ConfigError("--resume can only change episodes= and threads=, not '" + key + "'");
     }
-    const std::filesystem::path d(a.resume);
+    const std::filesystem::path d(*a.resume);
+    if (!std::filesystem::is_directory(d))
+      throw Error(d.string() + " is not a run directory (no such directory)");
     if (!std::filesystem::exists(d / "config.yaml"))
       throw Error(d.string() + " is not a run directory (no config.yaml)");
-    settings = experiment::load_run_settings_file(registry, (d / "config.yaml").string(), overrides);
+    source = (d / "config.yaml").string();
+    settings = experiment::load_run_settings_file(registry, source, overrides);
   } else {
     if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
     if (!a.output.empty()) overrides.push_back("output=" + a.output);
     if (!a.name.empty()) overrides.push_back("name=" + a.name);
     settings = settings_from(registry, file, overrides);
   }
-  return run_experiment(registry, settings, a.resume, a.quiet);
+  return run_experiment(registry, settings, source, a.resume.value_or(""), a.quiet);
 }
 
 }  // namespace
@@ -232,7 +249,7 @@ void add_config_command(CLI::App& app, Action& action, const experiment::Registr
       std::vector<std::string> overrides;
       split_args(*args, file, overrides);
       const auto s = settings_from(registry, file, overrides);
-      experiment::make_experiment(registry, s);  // full validation
+      make_experiment_from(registry, s, file);  // full validation
       std::cout << experiment::to_yaml(registry, s);
       return 0;
     };

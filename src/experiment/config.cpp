@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -201,13 +202,19 @@ double parse_double(const std::string& key, const YAML::Node& n) {
   const std::string text = node_text(n);
   if (!n.IsScalar()) fail(key, text, "expected a number");
   try {
+    // What std::stod reads but YAML does not (hexadecimal, leading blanks) is refused: every
+    // reader of the value, yaml-cpp's included, must read the same number.
+    const std::string& t = n.Scalar();
+    if (t.empty() || std::isspace(static_cast<unsigned char>(t.front())) ||
+        t.find_first_of("xX") != std::string::npos)
+      throw std::invalid_argument("not a decimal number");
     std::size_t pos = 0;
-    const double v = std::stod(n.Scalar(), &pos);
-    if (pos != n.Scalar().size()) throw std::invalid_argument("trailing");
+    const double v = std::stod(t, &pos);
+    if (pos != t.size()) throw std::invalid_argument("trailing");
     if (!std::isfinite(v)) throw std::invalid_argument("non-finite");
     return v;
   } catch (const std::exception&) {
-    fail(key, text, "expected a finite number");
+    fail(key, text, "expected a finite decimal number");
   }
 }
 
@@ -610,17 +617,46 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
   return best.empty() ? "" : " (did you mean '" + best + "'?)";
 }
 
-double get_double(const Settings& s, const std::string& key) { return std::stod(s.at(key)); }
-long long get_int(const Settings& s, const std::string& key) { return std::stoll(s.at(key)); }
+// Settings hold validated text; these conversions fail only for settings that did not come from
+// load_settings, and then say which key and value.
+double get_double(const Settings& s, const std::string& key) {
+  try {
+    return std::stod(s.at(key));
+  } catch (const std::invalid_argument&) {
+    fail(key, s.at(key), "expected a number");
+  } catch (const std::out_of_range&) {
+    if (!s.count(key)) throw;
+    fail(key, s.at(key), "out of range");
+  }
+}
+long long get_int(const Settings& s, const std::string& key) {
+  try {
+    return std::stoll(s.at(key));
+  } catch (const std::invalid_argument&) {
+    fail(key, s.at(key), "expected an integer");
+  } catch (const std::out_of_range&) {
+    if (!s.count(key)) throw;
+    fail(key, s.at(key), "out of range");
+  }
+}
 bool get_bool(const Settings& s, const std::string& key) { return s.at(key) == "true"; }
 std::vector<double> get_interval(const Settings& s, const std::string& key) {
-  const YAML::Node n = YAML::Load(s.at(key));
-  return {n[0].as<double>(), n[1].as<double>()};
+  try {
+    const YAML::Node n = YAML::Load(s.at(key));
+    if (!n.IsSequence() || n.size() != 2) fail(key, s.at(key), "expected [lower, upper]");
+    return {n[0].as<double>(), n[1].as<double>()};
+  } catch (const YAML::Exception&) {
+    fail(key, s.at(key), "expected [lower, upper] of two numbers");
+  }
 }
 std::vector<std::string> get_names(const Settings& s, const std::string& key) {
-  std::vector<std::string> out;
-  for (const auto& n : YAML::Load(s.at(key))) out.push_back(n.as<std::string>());
-  return out;
+  try {
+    std::vector<std::string> out;
+    for (const auto& n : YAML::Load(s.at(key))) out.push_back(n.as<std::string>());
+    return out;
+  } catch (const YAML::Exception&) {
+    fail(key, s.at(key), "expected a list of names such as [a, b]");
+  }
 }
 
 }  // namespace drops::experiment

@@ -4,14 +4,21 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <ctime>
+#include <set>
 #include <sstream>
 
+#include "drops/experiment/campaign.hpp"
 #include "drops/experiment/registry.hpp"
+#include "sha256.hpp"
 
 namespace drops::experiment {
 namespace fs = std::filesystem;
@@ -19,7 +26,11 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr int kCheckpointFormat = 1;
+// 1: the state only; 2: also what it covers ("validation": the resolved configuration and the
+// SHA-256 of the recorded files) and its own SHA-256 ("checksum").
+constexpr int kCheckpointFormat = 2;
+// Keys a resumed run may change (drops run --resume DIR episodes=N threads=T).
+const std::set<std::string> kResumeKeys = {"episodes", "threads"};
 
 std::string phi_text(const VectorXd& phi) {
   std::string s;
@@ -50,7 +61,7 @@ nlohmann::json details_json(const algo::Details& d) {
 }
 
 std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read " + path.string());
   std::stringstream ss;
   ss << in.rdbuf();
@@ -60,6 +71,21 @@ std::string read_text(const fs::path& path) {
 double number_or_nan(const nlohmann::json& j, const char* key) {
   const auto it = j.find(key);
   return it != j.end() && it->is_number() ? it->get<double>() : kNaN;
+}
+
+/// Each CMA-ES run of a search (values are returns: the optimizer's values negated).
+nlohmann::json runs_json(const opt::CmaesSummary& search) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (const auto& r : search.runs)
+    runs.push_back({{"lambda", r.lambda},
+                    {"sigma0", r.sigma0},
+                    {"from", r.from_start ? "start" : "random"},
+                    {"regime", r.small ? "small" : "large"},
+                    {"evaluations", r.evaluations},
+                    {"generations", r.generations},
+                    {"best_return", number(-r.best_value)},
+                    {"stop", r.stop_reason}});
+  return runs;
 }
 
 nlohmann::json report_json(const ReportInfo& r) {
@@ -77,6 +103,33 @@ nlohmann::json report_json(const ReportInfo& r) {
             {"reference_label", r.metric.reference_label}}},
           {"success_criterion", r.success_criterion},
           {"phi_value_labels", labels}};
+}
+
+std::string episode_folder(int episode) { return fmt::format("{:03d}", episode); }
+
+/// SHA-256 of a checkpoint's JSON without its "checksum" member.
+std::string checkpoint_checksum(nlohmann::json j) {
+  j.erase("checksum");
+  return sha256_hex(j.dump());
+}
+
+/// The dotted keys present in a YAML document: a mapping is descended into unless its dotted key
+/// is in `keys` (a key whose value is a mapping).
+void yaml_keys(const YAML::Node& node, const std::string& prefix, const std::set<std::string>& keys,
+               std::set<std::string>& out) {
+  if (!node.IsMap()) return;
+  for (const auto& kv : node) {
+    if (!kv.first.IsScalar()) continue;
+    const std::string key = prefix.empty() ? kv.first.Scalar() : prefix + "." + kv.first.Scalar();
+    if (kv.second.IsMap() && !keys.count(key))
+      yaml_keys(kv.second, key, keys, out);
+    else
+      out.insert(key);
+  }
+}
+
+std::string plural(std::size_t n, const char* word) {
+  return fmt::format("{} {}{}", n, word, n == 1 ? "" : "s");
 }
 
 ReportInfo report_from_json(const nlohmann::json& j) {
@@ -185,22 +238,52 @@ void RunDirectory::lock() {
 RunDirectory::RunDirectory(const fs::path& dir, const std::string& config_yaml,
                            const Experiment& e)
     : dir_(dir), experiment_(e) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error("cannot create run directory " + dir.string() + ": " + ec.message());
+  // The lock first: a run that another process starts in the same directory at the same moment
+  // then either finds it busy or finds its episodes.csv.
+  lock();
   if (fs::exists(dir / "episodes.csv"))
     throw Error("run directory " + dir.string() +
                 " already holds a run; choose another name=, remove it, or continue it with "
                 "drops run --resume " + dir.string());
+  start(config_yaml);
+}
+
+std::unique_ptr<RunDirectory> RunDirectory::create_unique(const fs::path& parent,
+                                                          const std::string& name,
+                                                          const std::string& config_yaml,
+                                                          const Experiment& e) {
   std::error_code ec;
-  fs::create_directories(dir / "episodes", ec);
-  if (ec) throw Error("cannot create run directory " + dir.string() + ": " + ec.message());
-  lock();
-  write_file_atomically(dir / "config.yaml", config_yaml);
-  episodes_csv_.open(dir / "episodes.csv", std::ios::trunc);
-  if (!episodes_csv_) throw Error("cannot write " + (dir / "episodes.csv").string());
-  episodes_csv_ << "episode,interaction_time_s,real_return,predicted_return,solved,phi,"
-                   "model_learning_s,policy_optimization_s,evaluations";
-  for (const auto& m : e.setup.metric_names) episodes_csv_ << "," << m;
-  episodes_csv_ << "\n";
-  episodes_csv_.flush();
+  fs::create_directories(parent, ec);
+  if (ec) throw Error("cannot create the output directory " + parent.string() + ": " + ec.message());
+  fs::path dir;
+  for (int i = 1;; ++i) {
+    dir = parent / (i == 1 ? name : fmt::format("{}-{}", name, i));
+    if (::mkdir(dir.c_str(), 0777) == 0) break;  // this process owns the new directory
+    if (errno != EEXIST || i >= 1000)
+      throw Error("cannot create run directory " + dir.string() + ": " + std::strerror(errno));
+  }
+  std::unique_ptr<RunDirectory> rd(new RunDirectory(dir, e));
+  rd->lock();
+  rd->start(config_yaml);
+  return rd;
+}
+
+void RunDirectory::start(const std::string& config_yaml) {
+  std::error_code ec;
+  fs::create_directories(dir_ / "episodes", ec);
+  if (ec) throw Error("cannot create " + (dir_ / "episodes").string() + ": " + ec.message());
+  write_file_atomically(dir_ / "config.yaml", config_yaml);
+  episodes_csv_.open(dir_ / "episodes.csv", std::ios::trunc | std::ios::binary);
+  if (!episodes_csv_) throw Error("cannot write " + (dir_ / "episodes.csv").string());
+  const Experiment& e = experiment_;
+  std::string header =
+      "episode,interaction_time_s,real_return,predicted_return,solved,phi,model_learning_s,"
+      "policy_optimization_s,evaluations";
+  for (const auto& m : e.setup.metric_names) header += "," + m;
+  append_row(header + "\n");
   const auto& p = e.setup.prior_parameters;
   summary_ = {{"task", e.task},
               {"algorithm", e.algorithm},
@@ -217,28 +300,40 @@ RunDirectory::RunDirectory(const fs::path& dir, const std::string& config_yaml,
   write_summary("running");
 }
 
+void RunDirectory::append_row(const std::string& row) {
+  episodes_csv_ << row;
+  episodes_csv_.flush();
+  if (!episodes_csv_) throw Error("cannot write " + (dir_ / "episodes.csv").string());
+  episodes_csv_text_ += row;
+}
+
 void RunDirectory::record(const algo::EpisodeRecord& rec) {
   const TaskSetup& setup = experiment_.setup;
   if (rec.keep_trajectories) {
-    const fs::path ep = dir_ / "episodes" / fmt::format("{:03d}", rec.episode);
-    fs::create_directories(ep);
-    write_file_atomically(ep / "real.csv", trajectory_csv(rec.real, setup));
-    if (rec.predicted.states.rows() > 0)
-      write_file_atomically(ep / "predicted.csv", trajectory_csv(rec.predicted, setup));
+    const std::string folder = "episodes/" + episode_folder(rec.episode);
+    std::error_code ec;
+    fs::create_directories(dir_ / folder, ec);
+    if (ec) throw Error("cannot create " + (dir_ / folder).string() + ": " + ec.message());
+    auto write = [&](const char* file, const std::string& text) {
+      const std::string rel = folder + "/" + file;
+      write_file_atomically(dir_ / rel, text);
+      file_sha256_[rel] = sha256_hex(text);
+    };
+    write("real.csv", trajectory_csv(rec.real, setup));
+    if (rec.predicted.states.rows() > 0) write("predicted.csv", trajectory_csv(rec.predicted, setup));
     std::string theta;
     for (Eigen::Index i = 0; i < rec.theta.size(); ++i)
       theta += fmt::format("{:.17g}\n", rec.theta[i]);
-    write_file_atomically(ep / "policy.csv", theta);
+    write("policy.csv", theta);
   }
   const std::vector<double> metrics = setup.metrics ? setup.metrics(rec) : std::vector<double>{};
 
-  episodes_csv_ << fmt::format("{},{:.3f},{:.6f},{:.6f},{},{},{:.3f},{:.3f},{}", rec.episode,
-                               rec.interaction_time, rec.real_return, rec.predicted_return,
-                               rec.solved ? 1 : 0, phi_text(rec.phi), rec.model_seconds,
-                               rec.policy_seconds, rec.evaluations);
-  for (double m : metrics) episodes_csv_ << fmt::format(",{:.6g}", m);
-  episodes_csv_ << "\n";
-  episodes_csv_.flush();
+  std::string row = fmt::format("{},{:.3f},{:.6f},{:.6f},{},{},{:.3f},{:.3f},{}", rec.episode,
+                                rec.interaction_time, rec.real_return, rec.predicted_return,
+                                rec.solved ? 1 : 0, phi_text(rec.phi), rec.model_seconds,
+                                rec.policy_seconds, rec.evaluations);
+  for (double m : metrics) row += fmt::format(",{:.6g}", m);
+  append_row(row + "\n");
 
   nlohmann::json e = {{"episode", rec.episode},
                       {"interaction_time_s", rec.interaction_time},
@@ -259,18 +354,8 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
     e["policy_search"] = "random";
   } else if (!rec.policy_search.runs.empty()) {
     e["policy_search"] = rec.policy_search.BriefReport();
-    // Each CMA-ES run (values are returns: the optimizer's values negated) and the selection.
-    nlohmann::json runs = nlohmann::json::array();
-    for (const auto& r : rec.policy_search.runs)
-      runs.push_back({{"lambda", r.lambda},
-                      {"sigma0", r.sigma0},
-                      {"from", r.from_start ? "start" : "random"},
-                      {"regime", r.small ? "small" : "large"},
-                      {"evaluations", r.evaluations},
-                      {"generations", r.generations},
-                      {"best_return", number(-r.best_value)},
-                      {"stop", r.stop_reason}});
-    e["policy_search_runs"] = runs;
+    // Each CMA-ES run and the selection.
+    e["policy_search_runs"] = runs_json(rec.policy_search);
     e["policy_selection"] = {{"selected", rec.selected},
                              {"candidates", rec.reevaluated_candidates},
                              {"reevaluated_return", number(rec.reevaluated_return)},
@@ -309,7 +394,14 @@ void RunDirectory::save_state(const algo::RunState& st) {
   for (const auto& v : st.model.h_params) h.push_back(to_std(v));
   nlohmann::json extra = nlohmann::json::object();
   for (const auto& [k, v] : st.extra) extra[k] = to_std(v);
-  const nlohmann::json j = {{"format", kCheckpointFormat},
+  // What the checkpoint covers, checked by reopen(): the configuration and the recorded files.
+  nlohmann::json files = nlohmann::json::object();
+  files["episodes.csv"] = sha256_hex(episodes_csv_text_);
+  files["summary.json"] = sha256_hex(summary_["episodes"].dump());
+  for (const auto& [rel, sha] : file_sha256_) files[rel] = sha;
+  nlohmann::json config = nlohmann::json::object();
+  for (const auto& [k, v] : experiment_.settings) config[k] = v;
+  nlohmann::json j = {{"format", kCheckpointFormat},
                             {"algorithm", experiment_.algorithm},
                             {"seed", experiment_.seed},
                             {"model_type", experiment_.variant},
@@ -319,12 +411,19 @@ void RunDirectory::save_state(const algo::RunState& st) {
                             {"first_solved_episode", st.first_solved_episode},
                             {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
                             {"extra", extra},
-                            {"data", {{"x", data_x}, {"u", data_u}, {"dx", data_dx}}}};
-  // nlohmann writes the shortest decimal form that reads back to the same double.
+                            {"data", {{"x", data_x}, {"u", data_u}, {"dx", data_dx}}},
+                            {"validation", {{"config", config}, {"sha256", files}}}};
+  // nlohmann writes the shortest decimal form that reads back to the same double, so the
+  // checksum of the file read back and dumped again is this one.
+  j["checksum"] = checkpoint_checksum(j);
   write_file_atomically(dir_ / "checkpoint.json", j.dump() + "\n");
+  has_checkpoint_ = true;
 }
 
-algo::RunState read_checkpoint(const fs::path& dir) {
+namespace {
+
+/// checkpoint.json parsed, its format and (format 2) its checksum checked.
+nlohmann::json read_checkpoint_json(const fs::path& dir) {
   const fs::path cp = dir / "checkpoint.json";
   if (!fs::exists(cp))
     throw Error("run " + dir.string() +
@@ -333,13 +432,33 @@ algo::RunState read_checkpoint(const fs::path& dir) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(read_text(cp));
-  } catch (const std::exception& e) {
-    throw Error("cannot read " + cp.string() + ": " + e.what());
+  } catch (const nlohmann::json::exception& e) {
+    throw RunDirectoryDamaged(cp.string() + " cannot be parsed (" + e.what() +
+                              "): the file is damaged (drops replaces it atomically, so a crash "
+                              "does not cut it); the run cannot be continued, start it again");
   }
+  if (!j.is_object() || !j.contains("format") || !j["format"].is_number_integer())
+    throw Error(cp.string() + " is malformed: no checkpoint format");
+  const int format = j["format"].get<int>();
+  if (format < 1 || format > kCheckpointFormat)
+    throw Error(cp.string() + ": checkpoint format " + std::to_string(format) +
+                " is not supported by this drops (it reads formats 1 to " +
+                std::to_string(kCheckpointFormat) + ")");
+  if (format >= 2) {
+    if (!j.contains("checksum") || !j["checksum"].is_string() || !j.contains("validation"))
+      throw RunDirectoryDamaged(cp.string() + " lacks its checksum or validation block: the file "
+                                "was edited; the run cannot be continued safely (start it again)");
+    if (j["checksum"].get<std::string>() != checkpoint_checksum(j))
+      throw RunDirectoryDamaged(cp.string() +
+                                " does not match its own checksum: the file was edited or damaged "
+                                "after drops wrote it; the run cannot be continued safely (restore "
+                                "the file or start the run again)");
+  }
+  return j;
+}
+
+algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
   try {
-    if (j.at("format").get<int>() != kCheckpointFormat)
-      throw Error(cp.string() + ": checkpoint format " + j.at("format").dump() +
-                  " is not supported");
     algo::RunState st;
     st.episodes_done = j.at("episodes_done").get<int>();
     st.best_theta = to_eigen(j.at("best_theta"), "best_theta");
@@ -360,71 +479,264 @@ algo::RunState read_checkpoint(const fs::path& dir) {
       st.data[i].u = to_eigen(d["u"][i], "data.u");
       st.data[i].dx = to_eigen(d["dx"][i], "data.dx");
     }
+    // 0: a state saved before the first real episode (PILCO with priors' simulation phase).
+    if (st.episodes_done < 0)
+      throw Error(cp.string() + ": episodes_done = " + std::to_string(st.episodes_done) +
+                  " (a checkpoint is written after an episode or a phase)");
     return st;
   } catch (const nlohmann::json::exception& e) {
     throw Error(cp.string() + " is malformed: " + e.what());
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    // to_eigen's messages start with "checkpoint.json:"; name the full path.
+    if (what.rfind("checkpoint.json:", 0) == 0)
+      throw Error(cp.string() + what.substr(std::string("checkpoint.json").size()));
+    throw;
   }
 }
 
+/// The configuration the run was started with (checkpoint format 2) against config.yaml as it is
+/// now (its text) and the experiment resolved from it.
+void check_config(const fs::path& dir, const nlohmann::json& started, const std::string& text,
+                  const Settings& now) {
+  const fs::path file = dir / "config.yaml";
+  std::set<std::string> keys, present;
+  for (const auto& [k, v] : started.items()) keys.insert(k);
+  try {
+    yaml_keys(YAML::Load(text), "", keys, present);
+  } catch (const YAML::Exception& e) {
+    throw RunDirectoryDamaged(file.string() + " cannot be parsed: " + e.what());
+  }
+  for (const auto& [k, v] : started.items()) {
+    const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+    if (!present.count(k))
+      throw RunDirectoryDamaged(
+          file.string() + " lacks the key '" + k + "' (the run was started with " + k + ": " +
+          (value.empty() ? "\"\"" : value) +
+          "): the file was cut or edited; restore it (checkpoint.json holds the run's "
+          "configuration under validation.config) or start the run again");
+    if (kResumeKeys.count(k)) continue;
+    const auto it = now.find(k);
+    const std::string current = it == now.end() ? std::string("(absent)") : it->second;
+    if (it == now.end() || !same_setting_value(current, value))
+      throw ConfigError(file.string() + ": key '" + k + "' is '" + current +
+                        "', but the run was started with '" + value +
+                        "' (checkpoint.json): a resumed run keeps its configuration (only "
+                        "episodes and threads may change); restore the value or start a new run");
+  }
+}
+
+/// Splits text after its first `lines` complete lines (each ending in '\n'); returns how many
+/// complete lines it found (at most `lines`) and sets *end to the offset after the last of them.
+int complete_lines(const std::string& text, int lines, std::size_t* end) {
+  std::size_t pos = 0;
+  int found = 0;
+  while (found < lines) {
+    const std::size_t nl = text.find('\n', pos);
+    if (nl == std::string::npos) break;
+    pos = nl + 1;
+    ++found;
+  }
+  *end = pos;
+  return found;
+}
+
+std::vector<std::string> split_cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream ss(line);
+  std::string c;
+  while (std::getline(ss, c, ',')) cells.push_back(c);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+}  // namespace
+
+algo::RunState read_checkpoint(const fs::path& dir) {
+  const nlohmann::json j = read_checkpoint_json(dir);
+  return state_from_json(j, dir / "checkpoint.json");
+}
+
 std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Experiment& e,
+                                                   const std::string& config_yaml,
                                                    algo::RunState* state) {
+  if (dir.empty()) throw Error("--resume needs the run directory to continue, got an empty path");
   std::unique_ptr<RunDirectory> rd(new RunDirectory(dir, e));
+  if (!fs::is_directory(dir)) throw Error(dir.string() + " is not a run directory (no such directory)");
   if (!fs::exists(dir / "config.yaml"))
     throw Error(dir.string() + " is not a run directory (no config.yaml)");
   rd->lock();
   if (!e.runner->resumable())
     throw Error("run " + dir.string() + ": algorithm '" + e.algorithm +
                 "' cannot be resumed; start it again");
-  *state = read_checkpoint(dir);
-  nlohmann::json cp, summary;
-  try {
-    cp = nlohmann::json::parse(read_text(dir / "checkpoint.json"));
-    summary = nlohmann::json::parse(read_text(dir / "summary.json"));
-  } catch (const std::exception& ex) {
-    throw Error("cannot read the summary of " + dir.string() + ": " + ex.what());
-  }
+  const fs::path cp_path = dir / "checkpoint.json";
+  const nlohmann::json cp = read_checkpoint_json(dir);
+  *state = state_from_json(cp, cp_path);
   const std::string algorithm = cp.value("algorithm", std::string("black_drops"));
   if (cp.value("seed", std::uint64_t{0}) != e.seed || algorithm != e.algorithm ||
       cp.value("model_type", std::string()) != e.variant)
-    throw Error(dir.string() + ": checkpoint.json does not belong to the run's config.yaml "
-                "(seed, algorithm or model differ)");
+    throw RunDirectoryDamaged(
+        cp_path.string() + " does not belong to the run's config.yaml (seed, algorithm or model " +
+        "differ: " + fmt::format("{} {} seed {} there, {} {} seed {} in config.yaml", algorithm,
+                                 cp.value("model_type", std::string()),
+                                 cp.value("seed", std::uint64_t{0}), e.algorithm, e.variant,
+                                 e.seed) +
+        ")");
   const int k = state->episodes_done;
+  const bool validated = cp.contains("validation");
+  nlohmann::json sha = validated ? cp["validation"].value("sha256", nlohmann::json::object())
+                                 : nlohmann::json::object();
+  auto recorded_sha = [&](const std::string& rel) {
+    return sha.contains(rel) && sha[rel].is_string() ? sha[rel].get<std::string>() : std::string();
+  };
 
-  // Drop whatever was recorded after the checkpoint.
-  {
-    std::ifstream in(dir / "episodes.csv");
-    std::string line, kept;
-    int row = 0;
-    while (std::getline(in, line)) {
-      if (row++ == 0) {
-        kept += line + "\n";
-        continue;
-      }
-      if (line.empty()) continue;
-      const int ep = std::atoi(line.c_str());
-      if (ep >= 1 && ep <= k) kept += line + "\n";
+  // Every check comes before any change, so that a refused resume leaves the directory as it was.
+  // 1. The configuration.
+  const fs::path config_path = dir / "config.yaml";
+  const std::string config_text = read_text(config_path);
+  if (validated) check_config(dir, cp["validation"].value("config", nlohmann::json::object()),
+                              config_text, e.settings);
+  if (e.runner->episodes() < k)
+    throw ConfigError(fmt::format(
+        "{}: episodes = {}, but the run has already done {} episodes (checkpoint.json); a resumed "
+        "run keeps or extends its episode count",
+        config_path.string(), e.runner->episodes(), k));
+
+  // 2. episodes.csv: the header and rows 1..k as recorded; anything after them is not covered.
+  const fs::path csv_path = dir / "episodes.csv";
+  if (!fs::exists(csv_path))
+    throw RunDirectoryDamaged(csv_path.string() + " is missing, but checkpoint.json covers " +
+                              plural(static_cast<std::size_t>(k), "episode") +
+                              ": restore the file or start the run again");
+  const std::string csv = read_text(csv_path);
+  std::size_t covered_end = 0;
+  const int lines = complete_lines(csv, k + 1, &covered_end);
+  if (lines < k + 1)
+    throw RunDirectoryDamaged(fmt::format(
+        "{} holds {} complete rows, but checkpoint.json covers {} episodes: the file was cut or "
+        "edited after episode {} was recorded; restore it or start the run again",
+        csv_path.string(), std::max(lines - 1, 0), k, k));
+  const std::string covered = csv.substr(0, covered_end);
+  if (validated) {
+    if (sha256_hex(covered) != recorded_sha("episodes.csv"))
+      throw RunDirectoryDamaged(fmt::format(
+          "{}: its header and rows 1-{} differ from what drops recorded (checksum in "
+          "checkpoint.json): the file was edited or damaged; restore it or start the run again",
+          csv_path.string(), k));
+  } else {
+    std::istringstream in(covered);
+    std::string line;
+    std::getline(in, line);
+    const std::size_t columns = split_cells(line).size();
+    if (line.rfind("episode,", 0) != 0)
+      throw RunDirectoryDamaged(csv_path.string() + ": the first line is not the header ('" +
+                                line + "')");
+    for (int row = 1; row <= k; ++row) {
+      std::getline(in, line);
+      if (line.rfind(std::to_string(row) + ",", 0) != 0 || split_cells(line).size() != columns)
+        throw RunDirectoryDamaged(fmt::format(
+            "{}: row {} ('{}') is not the whole record of episode {} ({} cells): the file was "
+            "edited or damaged; restore it or start the run again",
+            csv_path.string(), row, line, row, columns));
     }
-    write_file_atomically(dir / "episodes.csv", kept);
   }
-  if (fs::exists(dir / "episodes"))
-    for (const auto& entry : fs::directory_iterator(dir / "episodes")) {
-      const int ep = std::atoi(entry.path().filename().c_str());
-      if (ep > k) fs::remove_all(entry.path());
-    }
+  const std::string after = csv.substr(covered_end);
+  if (!after.empty()) {
+    const auto n = static_cast<std::size_t>(std::count(after.begin(), after.end(), '\n') +
+                                            (after.back() != '\n'));
+    rd->repairs_.push_back(fmt::format(
+        "removed {} of episodes.csv after episode {}: checkpoint.json does not cover {} (recorded "
+        "after the last checkpoint{})",
+        plural(n, "line"), k, n == 1 ? "it" : "them",
+        after.back() != '\n' ? ", the last one cut mid-line by a crash" : ""));
+  }
+
+  // 3. summary.json: the records of episodes 1..k as written.
+  const fs::path summary_path = dir / "summary.json";
+  if (!fs::exists(summary_path))
+    throw RunDirectoryDamaged(summary_path.string() + " is missing, but checkpoint.json covers " +
+                              plural(static_cast<std::size_t>(k), "episode") +
+                              ": restore the file or start the run again");
+  nlohmann::json summary;
   try {
-    nlohmann::json eps = nlohmann::json::array();
-    for (const auto& ep : summary.at("episodes"))
-      if (ep.at("episode").get<int>() <= k) eps.push_back(ep);
-    summary["episodes"] = eps;
-    summary.erase("first_solved_episode");
-    for (const auto& ep : eps)
-      if (ep.at("solved").get<bool>()) {
-        summary["first_solved_episode"] = ep.at("episode");
-        break;
-      }
-  } catch (const nlohmann::json::exception& ex) {
-    throw Error((dir / "summary.json").string() + " is malformed: " + ex.what());
+    summary = nlohmann::json::parse(read_text(summary_path));
+  } catch (const std::exception& ex) {
+    throw RunDirectoryDamaged(summary_path.string() + " cannot be parsed (" + ex.what() +
+                              "): restore the file or start the run again");
   }
+  nlohmann::json eps = nlohmann::json::array();
+  int later_entries = 0;
+  if (!summary.is_object() || !summary.contains("episodes") || !summary["episodes"].is_array())
+    throw RunDirectoryDamaged(summary_path.string() +
+                              " has no \"episodes\" list: restore the file or start the run again");
+  for (const auto& ep : summary["episodes"]) {
+    if (!ep.is_object() || !ep.contains("episode") || !ep["episode"].is_number_integer() ||
+        !ep.contains("solved") || !ep["solved"].is_boolean())
+      throw RunDirectoryDamaged(summary_path.string() + ": an entry of \"episodes\" lacks its "
+                                "episode number or solved flag: " + ep.dump());
+    if (ep["episode"].get<int>() <= k)
+      eps.push_back(ep);
+    else
+      ++later_entries;
+  }
+  bool in_order = static_cast<int>(eps.size()) == k;
+  for (int i = 0; in_order && i < k; ++i) in_order = eps[i]["episode"].get<int>() == i + 1;
+  if (!in_order)
+    throw RunDirectoryDamaged(fmt::format(
+        "{} records {} of episodes 1-{}, not each once in order, but checkpoint.json covers {}: "
+        "the file was edited or damaged; restore it or start the run again",
+        summary_path.string(), plural(eps.size(), "entry"), k, k));
+  if (validated && sha256_hex(eps.dump()) != recorded_sha("summary.json"))
+    throw RunDirectoryDamaged(fmt::format(
+        "{}: the records of episodes 1-{} differ from what drops recorded (checksum in "
+        "checkpoint.json): the file was edited or damaged; restore it or start the run again",
+        summary_path.string(), k));
+  if (later_entries > 0)
+    rd->repairs_.push_back(fmt::format(
+        "removed {} of summary.json after episode {} (recorded after the last checkpoint)",
+        plural(static_cast<std::size_t>(later_entries), "episode entry"), k));
+
+  // 4. episodes/NNN: the files of episodes 1..k as written; folders of later episodes go.
+  if (validated) {
+    for (const auto& [rel, value] : sha.items()) {
+      if (rel.rfind("episodes/", 0) != 0) continue;
+      const fs::path f = dir / rel;
+      if (!fs::exists(f))
+        throw RunDirectoryDamaged(f.string() + " is missing, but checkpoint.json covers it: "
+                                  "restore the file or start the run again");
+      if (sha256_hex(read_text(f)) != value.get<std::string>())
+        throw RunDirectoryDamaged(f.string() + " differs from what drops recorded (checksum in "
+                                  "checkpoint.json): the file was edited or damaged; restore it "
+                                  "or start the run again");
+      rd->file_sha256_[rel] = value.get<std::string>();
+    }
+  } else {
+    // A run directory from before the checksums: they start from the files as they are now.
+    for (int ep = 1; ep <= k; ++ep)
+      for (const char* f : {"real.csv", "predicted.csv", "policy.csv"}) {
+        const std::string rel = "episodes/" + episode_folder(ep) + "/" + f;
+        if (fs::exists(dir / rel)) rd->file_sha256_[rel] = sha256_hex(read_text(dir / rel));
+      }
+  }
+  std::vector<fs::path> later_folders;
+  if (fs::exists(dir / "episodes"))
+    for (const auto& entry : fs::directory_iterator(dir / "episodes"))
+      if (std::atoi(entry.path().filename().c_str()) > k) later_folders.push_back(entry.path());
+
+  // Every check passed: repair and continue.
+  if (!after.empty()) write_file_atomically(csv_path, covered);
+  for (const auto& f : later_folders) fs::remove_all(f);
+  if (!later_folders.empty())
+    rd->repairs_.push_back(fmt::format("removed {} of episodes/ after episode {} (written after "
+                                       "the last checkpoint)",
+                                       plural(later_folders.size(), "folder"), k));
+  summary["episodes"] = eps;
+  summary.erase("first_solved_episode");
+  for (const auto& ep : eps)
+    if (ep["solved"].get<bool>()) {
+      summary["first_solved_episode"] = ep["episode"];
+      break;
+    }
   summary["episodes_planned"] = e.runner->episodes();
   summary.erase("finished");
   summary.erase("error");
@@ -432,13 +744,19 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
   summary["algorithm"] = e.algorithm;
   summary["uses_prior"] = e.uses_prior;
   summary["report"] = report_json(e.report);
-  if (!summary.contains("resumed")) summary["resumed"] = nlohmann::json::array();
+  if (!summary.contains("resumed") || !summary["resumed"].is_array())
+    summary["resumed"] = nlohmann::json::array();
   summary["resumed"].push_back(now_iso());
   if (summary.contains("seconds") && summary["seconds"].is_number())
     rd->previous_seconds_ = summary["seconds"].get<double>();
   rd->summary_ = summary;
-  rd->episodes_csv_.open(dir / "episodes.csv", std::ios::app);
-  if (!rd->episodes_csv_) throw Error("cannot append to " + (dir / "episodes.csv").string());
+  // config.yaml says what this session runs (a new episode count, threads): `drops run
+  // DIR/config.yaml` then repeats the run as it ends.
+  if (config_text != config_yaml) write_file_atomically(config_path, config_yaml);
+  rd->episodes_csv_text_ = covered;
+  rd->episodes_csv_.open(csv_path, std::ios::app | std::ios::binary);
+  if (!rd->episodes_csv_) throw Error("cannot append to " + csv_path.string());
+  rd->has_checkpoint_ = true;
   rd->write_summary("running");
   return rd;
 }
@@ -450,18 +768,8 @@ void RunDirectory::finish(const algo::RunSummary& s, const std::string& status,
   summary_["seconds"] = previous_seconds_ + s.seconds;  // over every session of the run
   summary_["finished"] = now_iso();
   if (!s.search.runs.empty()) {
-    nlohmann::json runs = nlohmann::json::array();
-    for (const auto& r : s.search.runs)
-      runs.push_back({{"lambda", r.lambda},
-                      {"sigma0", r.sigma0},
-                      {"from", r.from_start ? "start" : "random"},
-                      {"regime", r.small ? "small" : "large"},
-                      {"evaluations", r.evaluations},
-                      {"generations", r.generations},
-                      {"best_return", number(-r.best_value)},
-                      {"stop", r.stop_reason}});
     summary_["search"] = {{"summary", s.search.BriefReport()},
-                          {"runs", runs},
+                          {"runs", runs_json(s.search)},
                           {"restarts", s.search.restarts},
                           {"start_return", number(-s.search.start_value)},
                           {"best_theta", to_std(s.search.best_x)}};

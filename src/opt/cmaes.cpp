@@ -731,6 +731,10 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
     // A population larger than the remaining budget could not be evaluated anyway; the hard cap
     // only guards memory and int conversions for absurd budgets.
     lambda = std::max(2L, std::min({lambda, remaining, 1L << 24}));
+    // A budget below one generation would end the run before it evaluates anything: with a small
+    // total (drops direct --evaluations 30: a quarter of it, 7, per run, with lambda = 17) every
+    // run ended at once and the search evaluated nothing. Such a run evaluates one generation.
+    run_budget = std::max(run_budget, lambda);
     CmaesRun record;
     record.small = small;
     const std::string reason = search.run(r, static_cast<int>(lambda), sigma, start, from_start,

@@ -88,7 +88,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
   const std::size_t B = static_cast<std::size_t>(options.batch);
   const std::size_t chunks = (lanes + B - 1) / B;
   std::vector<double> lane_return(lanes, 0.0);
-  std::vector<long> chunk_bad(chunks, 0);
+  std::vector<long> chunk_bad(chunks, 0), chunk_absorbed(chunks, 0);
   parallel_for(chunks, [&](std::size_t c) {
     const std::size_t begin = c * B, end = std::min(lanes, begin + B);
     const Eigen::Index n = static_cast<Eigen::Index>(end - begin);
@@ -101,36 +101,56 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       pols.push_back(std::move(p));
       rngs.emplace_back(derive_seed(seeds[k], {r}));
     }
-    MatrixXd X(n, E), Uc(n, U), mean, var;
+    MatrixXd X(n, E), Uc, mean, var, Xa;
     const VectorXd x0 = task.initial_state();
     for (Eigen::Index b = 0; b < n; ++b) X.row(b) = x0.transpose();
-    std::vector<char> alive(static_cast<std::size_t>(n), 1);
+    // The running lanes, in lane order; while every lane runs, the batch is X itself.
+    std::vector<Eigen::Index> running(static_cast<std::size_t>(n));
+    for (Eigen::Index b = 0; b < n; ++b) running[static_cast<std::size_t>(b)] = b;
     VectorXd x(E), obs(O), u(U);
     const double dt = task.dt();
-    for (int t = 0; t < H; ++t) {
-      for (Eigen::Index b = 0; b < n; ++b) {
-        x = X.row(b).transpose();
-        task.observe(x, obs);
-        pols[static_cast<std::size_t>(b)]->act(obs, t * dt, u);
-        Uc.row(b) = u.transpose();
+    for (int t = 0; t < H && !running.empty(); ++t) {
+      const auto m = static_cast<Eigen::Index>(running.size());
+      const bool all = m == n;
+      if (!all) {
+        Xa.resize(m, E);
+        for (Eigen::Index j = 0; j < m; ++j) Xa.row(j) = X.row(running[static_cast<std::size_t>(j)]);
       }
-      model.predict_batch(X, Uc, mean, var);
-      for (Eigen::Index b = 0; b < n; ++b) {
-        if (!alive[static_cast<std::size_t>(b)]) continue;
+      const MatrixXd& Xb = all ? X : Xa;
+      Uc.resize(m, U);
+      for (Eigen::Index j = 0; j < m; ++j) {
+        x = Xb.row(j).transpose();
+        task.observe(x, obs);
+        pols[static_cast<std::size_t>(running[static_cast<std::size_t>(j)])]->act(obs, t * dt, u);
+        Uc.row(j) = u.transpose();
+      }
+      model.predict_batch(Xb, Uc, mean, var);
+      std::vector<Eigen::Index> still;
+      still.reserve(running.size());
+      for (Eigen::Index j = 0; j < m; ++j) {
+        const Eigen::Index b = running[static_cast<std::size_t>(j)];
         Rng& rng = rngs[static_cast<std::size_t>(b)];
         for (int i = 0; i < E; ++i) {
-          double d = mean(b, i);
-          if (options.sample) d += std::sqrt(std::max(0.0, var(b, i))) * draw(rng, options.clip);
+          double d = mean(j, i);
+          if (options.sample) d += std::sqrt(std::max(0.0, var(j, i))) * draw(rng, options.clip);
           x[i] = X(b, i) + d;
         }
         if (!x.allFinite()) {
-          alive[static_cast<std::size_t>(b)] = 0;
           ++chunk_bad[c];
-          continue;
+          continue;  // stopped: remaining rewards 0
         }
         X.row(b) = x.transpose();
-        lane_return[begin + static_cast<std::size_t>(b)] += task.reward(x);
+        const double r = task.reward(x);
+        double& total = lane_return[begin + static_cast<std::size_t>(b)];
+        total += r;
+        if (task.absorbing(x)) {
+          total += r * (H - 1 - t);  // the state and its reward repeat to the end
+          ++chunk_absorbed[c];
+          continue;
+        }
+        still.push_back(b);
       }
+      running = std::move(still);
     }
   });
   returns.resize(static_cast<Eigen::Index>(K));
@@ -142,6 +162,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
   if (stats) {
     stats->rollouts += static_cast<long>(lanes);
     for (long b : chunk_bad) stats->nonfinite_steps += b;
+    for (long a : chunk_absorbed) stats->absorbed += a;
   }
 }
 

@@ -9,13 +9,23 @@
 #include <cstdio>
 #include <csignal>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
 #include <thread>
+#include <vector>
 #include <unistd.h>
+
+#include "drops/experiment/campaign.hpp"
+#include "drops/experiment/config.hpp"
+#include "drops/experiment/registry.hpp"
+#include "drops/pendubot/plugin.hpp"
+#ifdef DROPS_WITH_HEXAPOD
+#include "drops/hexapod/plugin.hpp"
+#endif
 
 namespace fs = std::filesystem;
 
@@ -103,31 +113,71 @@ TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
   fs::remove_all(out);
 }
 
-// Every experiment file shipped in configs/ runs as `drops run FILE` with its progress lines on
-// (not -q: the per-episode line once crashed for the gp variant, which has no phi), with tiny
-// budgets. Campaign and study files (they have a grid) are run by the campaign tests.
-TEST(EndToEnd, EveryShippedExperimentFileRunsWithItsProgressLines) {
+// Every file shipped in configs/ works as documented, with tiny budgets:
+// - an experiment file runs as `drops run FILE` with its progress lines on (not -q: the
+//   per-episode line once crashed for the gp variant, which has no phi);
+// - a campaign or study file (it has a grid) passes `drops campaign FILE --dry-run`, which builds
+//   every run's experiment, and the first run of its grid runs as `drops run` from the
+//   configuration the campaign would give it.
+TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
   const fs::path out = fresh_dir("configs");
-  int files = 0;
-  for (const auto& entry : fs::directory_iterator(fs::path(DROPS_SOURCE_DIR) / "configs")) {
-    if (entry.path().extension() != ".yaml") continue;
-    std::ifstream in(entry.path());
+  drops::experiment::Registry registry;
+  drops::experiment::register_builtin_algorithms(registry);
+  drops::pendubot::register_task(registry);
+#ifdef DROPS_WITH_HEXAPOD
+  drops::hexapod::register_task(registry);
+#endif
+  const std::string tiny =
+      " episodes=2 optimizer.max_evaluations=40 optimizer.prior_optimizations=1"
+      " rollouts.predicted=2 optimizer.reevaluation_rollouts=2";
+  int experiments = 0, campaigns = 0;
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(fs::path(DROPS_SOURCE_DIR) / "configs"))
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& file : files) {
+    const std::string name = file.stem().string();
+    SCOPED_TRACE(name);
+    std::ifstream in(file);
     std::stringstream text;
     text << in.rdbuf();
-    if (text.str().find("\ngrid:") != std::string::npos) continue;
-    ++files;
-    const std::string name = entry.path().stem().string();
+    fs::path config = file;
+    std::string extra;
+    if (text.str().find("\ngrid:") != std::string::npos) {
+      ++campaigns;
+      std::string err;
+      const fs::path listing = out / (name + ".dry-run");
+      EXPECT_EQ(run("campaign " + file.string() + " --dry-run --output " + out.string() + " > " +
+                        listing.string(),
+                    &err),
+                0)
+          << err;
+      std::ifstream l(listing);
+      std::stringstream dry;
+      dry << l.rdbuf();
+      EXPECT_NE(dry.str().find(" to start,"), std::string::npos) << dry.str();
+      // The first run of the grid, as the campaign would write its configs/<run>.yaml.
+      const auto spec = drops::experiment::load_campaign_file(registry, file.string());
+      EXPECT_FALSE(fs::exists(out / spec.name)) << "--dry-run wrote the campaign directory";
+      const auto runs = drops::experiment::expand_campaign(registry, spec, false);
+      ASSERT_FALSE(runs.empty());
+      config = out / (name + "-first-run.yaml");
+      std::ofstream(config) << drops::experiment::to_yaml(registry, runs.front().settings);
+      // A hexapod episode is thousands of DART steps: a short horizon keeps the test small.
+      if (runs.front().settings.at("task") == "hexapod") extra = " hexapod.horizon=20";
+    } else {
+      ++experiments;
+    }
     std::string err;
-    const int rc = run("run " + entry.path().string() +
-                           " episodes=2 optimizer.max_evaluations=40 optimizer.prior_optimizations=1"
-                           " rollouts.predicted=2 optimizer.reevaluation_rollouts=2 --output " +
-                           out.string() + " --name " + name,
+    const int rc = run("run " + config.string() + tiny + extra + " --output " + out.string() +
+                           " --name " + name,
                        &err);
-    EXPECT_EQ(rc, 0) << name << ": " << err;
-    EXPECT_NE(err.find("episode  2/2"), std::string::npos) << name << ": " << err;
-    EXPECT_NE(err.find("done: 2 episodes"), std::string::npos) << name << ": " << err;
+    EXPECT_EQ(rc, 0) << err;
+    EXPECT_NE(err.find("episode  2/2"), std::string::npos) << err;
+    EXPECT_NE(err.find("done: 2 episodes"), std::string::npos) << err;
   }
-  EXPECT_GE(files, 5);  // the four pendubot variants and the hexapod
+  EXPECT_GE(experiments, 5);  // the four pendubot variants and the hexapod
+  EXPECT_GE(campaigns, 3);
   fs::remove_all(out);
 }
 
@@ -138,36 +188,149 @@ TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
   EXPECT_NE(err.find("did you mean 'model.type'"), std::string::npos) << err;
   EXPECT_EQ(run("run /nonexistent.yaml --output " + out.string(), &err), 2);
   EXPECT_NE(err.find("cannot read config file"), std::string::npos) << err;
+  // What only the task can check (the prior's starting l2 = 0.4 outside the bounds) names the file.
+  const fs::path file = out.parent_path() / ("drops-e2e-bad-" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(file) << "prior:\n  bounds:\n    l2: [0.5, 1.0]\n";
+  EXPECT_EQ(run("run " + file.string() + " --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find(file.string() + ": config key 'prior.bounds.l2'"), std::string::npos) << err;
+  fs::remove(file);
+  // A number YAML cannot read: the key, not yaml-cpp's bare "bad conversion".
+  EXPECT_EQ(run("run 'prior.bounds.m2=[0x1, 2]' --output " + out.string(), &err), 2);
+  EXPECT_NE(err.find("config key 'prior.bounds.m2'"), std::string::npos) << err;
   EXPECT_TRUE(fs::is_empty(out));
   fs::remove_all(out);
 }
 
-TEST(EndToEnd, InterruptKeepsEveryFinishedEpisode) {
-  const fs::path out = fresh_dir("sigint");
-  const std::string cmd = std::string(DROPS_BINARY) + " run episodes=50 model.type=gp_prior "
-                          "optimizer.max_evaluations=2000 --output " + out.string() +
-                          " --name run -q";
+namespace {
+
+/// Starts `drops run <args> --output out --name run -q` in the background.
+pid_t spawn_run(const std::string& args, const fs::path& out, const fs::path& err) {
+  const std::string cmd = std::string(DROPS_BINARY) + " run " + args + " --output " +
+                          out.string() + " --name run";
   const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
   if (pid == 0) {
-    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>/dev/null").c_str(), nullptr);
+    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>" + err.string()).c_str(), nullptr);
     _exit(127);
   }
-  // wait for two recorded episodes, then Ctrl-C
-  const fs::path csv = out / "run" / "episodes.csv";
-  for (int i = 0; i < 600 && count_lines(csv) < 3; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  return pid;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+// Ctrl-C (SIGINT) and SIGTERM (kill, a batch system's time limit) alike stop the run after its
+// current step: every finished episode is kept, the status is "interrupted", the exit code 130,
+// and the message says how to continue.
+TEST(EndToEnd, InterruptAndTerminateKeepEveryFinishedEpisode) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(sig == SIGINT ? "SIGINT" : "SIGTERM");
+    const fs::path out = fresh_dir("interrupt");
+    const fs::path err = out / "stderr";
+    const pid_t pid = spawn_run("episodes=50 model.type=gp_prior optimizer.max_evaluations=2000",
+                                out, err);
+    ASSERT_GE(pid, 0);
+    // wait for two recorded episodes, then the signal
+    const fs::path csv = out / "run" / "episodes.csv";
+    for (int i = 0; i < 600 && count_lines(csv) < 3; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    kill(pid, sig);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 130);
+    const auto summary = read_json(out / "run" / "summary.json");
+    EXPECT_EQ(summary["status"], "interrupted");
+    const int done = summary["episodes_done"].get<int>();
+    EXPECT_GE(done, 2);
+    EXPECT_LT(done, 50);
+    EXPECT_EQ(count_lines(csv), done + 1);
+    EXPECT_NE(slurp(err).find("continue it with: drops run --resume " + (out / "run").string()),
+              std::string::npos)
+        << slurp(err);
+    fs::remove_all(out);
+  }
+}
+
+// Interrupted during episode 1 (the policy search on the prior), a run has no checkpoint: it says
+// to start again and does not offer a --resume that would be refused.
+TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
+  const fs::path out = fresh_dir("first");
+  const fs::path err = out / "stderr";
+  const pid_t pid = spawn_run("optimizer.max_evaluations=200000", out, err);
+  for (int i = 0; i < 600 && !fs::exists(out / "run" / "summary.json"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
   kill(pid, SIGINT);
   int status = 0;
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 130);
-  const auto summary = read_json(out / "run" / "summary.json");
-  EXPECT_EQ(summary["status"], "interrupted");
-  const int done = summary["episodes_done"].get<int>();
-  EXPECT_GE(done, 2);
-  EXPECT_LT(done, 50);
-  EXPECT_EQ(count_lines(csv), done + 1);
+  const std::string text = slurp(err);
+  EXPECT_EQ(text.find("--resume"), std::string::npos) << text;
+  EXPECT_NE(text.find("no episode finished, so there is nothing to continue: start the run again"),
+            std::string::npos)
+      << text;
+  EXPECT_FALSE(fs::exists(out / "run" / "checkpoint.json"));
+  EXPECT_EQ(read_json(out / "run" / "summary.json")["status"], "interrupted");
+  // ... and --resume, tried anyway, says the same.
+  std::string resume_err;
+  EXPECT_EQ(run("run --resume " + (out / "run").string(), &resume_err), 1);
+  EXPECT_NE(resume_err.find("no checkpoint.json"), std::string::npos) << resume_err;
+  fs::remove_all(out);
+}
+
+// Runs with the default name (which holds the time to the second) started together get a
+// directory each: the name is claimed with mkdir, and a taken one gets "-2", "-3", ...
+TEST(EndToEnd, RunsStartedInTheSameSecondGetADirectoryEach) {
+  const fs::path out = fresh_dir("same-second");
+  // Taken names for the next seconds, so that the runs below must avoid them.
+  const std::string base = "pendubot-gp_mi-tunable-useful-seed1-";
+  const auto now = std::chrono::system_clock::now();
+  for (int s = -1; s < 60; ++s) {
+    const std::time_t t = std::chrono::system_clock::to_time_t(now + std::chrono::seconds(s));
+    std::tm tm{};
+    localtime_r(&t, &tm);
+    char stamp[32];
+    std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm);
+    fs::create_directories(out / (base + stamp));
+    std::ofstream(out / (base + stamp) / "episodes.csv") << "episode\n";
+  }
+  const std::string cmd = std::string(DROPS_BINARY) +
+                          " run episodes=1 optimizer.max_evaluations=40 "
+                          "optimizer.prior_optimizations=1 rollouts.predicted=2 "
+                          "optimizer.reevaluation_rollouts=2 threads=1 -q --output " +
+                          out.string();
+  std::vector<pid_t> pids;
+  for (int i = 0; i < 3; ++i) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>/dev/null").c_str(), nullptr);
+      _exit(127);
+    }
+    pids.push_back(pid);
+  }
+  for (const pid_t pid : pids) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+  }
+  int runs = 0;
+  for (const auto& entry : fs::directory_iterator(out))
+    if (fs::exists(entry.path() / "summary.json")) {
+      ++runs;
+      EXPECT_EQ(read_json(entry.path() / "summary.json")["status"], "complete");
+      const std::string n = entry.path().filename().string();
+      EXPECT_EQ(n.rfind(base, 0), 0u) << n;
+      EXPECT_NE(n.find_last_of('-'), base.size() + 8) << n << ": expected a suffix -2, -3, ...";
+    }
+  EXPECT_EQ(runs, 3);
   fs::remove_all(out);
 }
 

@@ -176,6 +176,19 @@ TEST(Resume, ACompleteRunCanBeExtendedWithMoreEpisodes) {
   std::string err;
   ASSERT_EQ(run("run --resume " + (out / "four").string() + " episodes=5 -q", &err), 0) << err;
   expect_same_episodes(out / "five", out / "four", 5);
+  // config.yaml says what the run is now: 5 episodes, and `drops run` of it repeats the run.
+  EXPECT_NE(slurp(out / "four" / "config.yaml").find("\nepisodes: 5\n"), std::string::npos)
+      << slurp(out / "four" / "config.yaml");
+  ASSERT_EQ(run("run " + (out / "four" / "config.yaml").string() + " --output " + out.string() +
+                    " --name again -q",
+                &err),
+            0)
+      << err;
+  expect_same_episodes(out / "five", out / "again", 5);
+  // Fewer episodes than are done is refused.
+  EXPECT_EQ(run("run --resume " + (out / "four").string() + " episodes=3", &err), 2);
+  EXPECT_NE(err.find("episodes = 3, but the run has already done 5 episodes"), std::string::npos)
+      << err;
   // Resuming a complete run is a no-op that says so.
   ASSERT_EQ(run("run --resume " + (out / "four").string(), &err), 0) << err;
   EXPECT_NE(err.find("nothing to do"), std::string::npos) << err;

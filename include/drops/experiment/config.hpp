@@ -93,7 +93,9 @@ std::string to_yaml(const Registry& registry, const Settings& settings);
 /// table per task (docs/configuration.md).
 std::string schema_markdown(const Registry& registry);
 
-// Typed access to validated settings (keys must exist: std::out_of_range otherwise).
+// Typed access to validated settings (keys must exist: std::out_of_range otherwise). A value that
+// does not convert (settings that did not come from load_settings) throws ConfigError naming the
+// key and the value.
 double get_double(const Settings& s, const std::string& key);
 long long get_int(const Settings& s, const std::string& key);
 bool get_bool(const Settings& s, const std::string& key);

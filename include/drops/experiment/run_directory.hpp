@@ -12,7 +12,9 @@
 ///     episodes/NNN/real.csv       real trajectory: t, states, actions, reward, the task's extras
 ///     episodes/NNN/predicted.csv  mean-propagated trajectory on the model that chose the policy
 ///     episodes/NNN/policy.csv     policy parameters theta (one per line)
-///     checkpoint.json             the algorithm's state after the last finished episode (--resume)
+///     checkpoint.json             the algorithm's state after the last finished episode (--resume),
+///                                 with what it covers: the resolved configuration and SHA-256
+///                                 checksums of the recorded files and of itself (format 2)
 ///     .lock                       flock()ed by the process writing the directory
 
 #include <cstdint>
@@ -54,27 +56,62 @@ class RunDirectoryBusy : public Error {
   using Error::Error;
 };
 
+/// Thrown by RunDirectory::reopen when the run directory does not match its checkpoint (a file
+/// missing, cut or edited since the checkpoint was written); the message names the file.
+class RunDirectoryDamaged : public Error {
+ public:
+  using Error::Error;
+};
+
 /// The writer of a run directory, for one experiment (every algorithm writes the same format).
 /// Not thread-safe: call from the thread that runs the algorithm (its callbacks).
 class RunDirectory {
  public:
-  /// Creates the directory (throws drops::Error if it exists and holds an episodes.csv, or cannot
-  /// be created), writes config.yaml (config_yaml: to_yaml of the experiment's settings) and the
-  /// header of episodes.csv, takes the lock (RunDirectoryBusy if another process holds it).
-  /// experiment must outlive the RunDirectory.
+  /// Creates the directory `dir` (and its parents), takes the lock (RunDirectoryBusy if another
+  /// process holds it), writes config.yaml (config_yaml: to_yaml of the experiment's settings) and
+  /// the header of episodes.csv. Throws drops::Error naming the directory when it already holds a
+  /// run (an episodes.csv) or cannot be created. experiment must outlive the RunDirectory.
   RunDirectory(const std::filesystem::path& dir, const std::string& config_yaml,
                const Experiment& experiment);
   ~RunDirectory();
   RunDirectory(const RunDirectory&) = delete;
   RunDirectory& operator=(const RunDirectory&) = delete;
 
+  /// As the constructor, in a directory of its own under `parent` named `name` or, when that
+  /// exists already, `name-2`, `name-3`, ... (claimed with mkdir(2), so two processes started in
+  /// the same second get two directories). For default run names, which hold a timestamp.
+  static std::unique_ptr<RunDirectory> create_unique(const std::filesystem::path& parent,
+                                                     const std::string& name,
+                                                     const std::string& config_yaml,
+                                                     const Experiment& experiment);
+
   /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json into
-  /// *state, and removes what was recorded after it (rows of episodes.csv, episodes/NNN folders
-  /// and summary entries of later episodes, e.g. an episode written just before a crash).
-  /// experiment must be the one of DIR/config.yaml. Throws drops::Error when there is no
-  /// checkpoint.json (no episode finished: start the run again) or it does not fit the experiment.
+  /// *state and checks the directory against it, then removes what was recorded after it.
+  /// experiment must be the one of DIR/config.yaml (with the episodes= and threads= of the resumed
+  /// session); config_yaml is to_yaml of its settings, written to DIR/config.yaml when it differs
+  /// (so that the file says the new episode count and `drops run DIR/config.yaml` repeats the run).
+  ///
+  /// Checks (checkpoint format 2, written since the checkpoint kept checksums): checkpoint.json's
+  /// own checksum; every key of the configuration the run was started with is in config.yaml with
+  /// the same value (episodes and threads aside); the first episodes_done rows of episodes.csv,
+  /// the first episodes_done entries of summary.json's "episodes" and every file of episodes/NNN
+  /// up to episodes_done have the checksums recorded in the checkpoint. A run directory written
+  /// before (format 1) gets structural checks: the rows and summary entries 1..episodes_done are
+  /// present and whole; its checksums are taken from the files as they are at this resume.
+  ///
+  /// Repairs (listed by repairs()): rows of episodes.csv after episodes_done (also a last row cut
+  /// mid-line by a crash), summary entries of later episodes and episodes/NNN folders of later
+  /// episodes are removed: the checkpoint does not cover them and the resumed run writes them
+  /// again.
+  ///
+  /// Throws drops::Error when DIR is not a run directory or there is no checkpoint.json (no episode
+  /// finished: start the run again); RunDirectoryBusy when another process holds the lock;
+  /// RunDirectoryDamaged naming the file when a check fails; ConfigError when the configuration
+  /// differs from the one the run was started with (naming the key) or plans fewer episodes than
+  /// are done.
   static std::unique_ptr<RunDirectory> reopen(const std::filesystem::path& dir,
                                               const Experiment& experiment,
+                                              const std::string& config_yaml,
                                               algo::RunState* state);
 
   /// Writes every file of one finished episode (trajectories and policy only when
@@ -91,16 +128,29 @@ class RunDirectory {
   void finish(const algo::RunSummary& summary, const std::string& status,
               const std::string& error = "");
   const std::filesystem::path& path() const { return dir_; }
+  /// True when checkpoint.json holds a finished episode (or a phase before the first one): the
+  /// run can be continued with `drops run --resume` (false until the first save_state() of a new
+  /// run).
+  bool has_checkpoint() const { return has_checkpoint_; }
+  /// What reopen() removed or rewrote, one sentence each (empty for a new run).
+  const std::vector<std::string>& repairs() const { return repairs_; }
 
  private:
   RunDirectory(const std::filesystem::path& dir, const Experiment& experiment);
   void lock();
+  void start(const std::string& config_yaml);
+  void append_row(const std::string& row);
   void write_summary(const std::string& status);
   int lock_fd_ = -1;
   double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
+  bool has_checkpoint_ = false;
   std::filesystem::path dir_;
   const Experiment& experiment_;
   std::ofstream episodes_csv_;
+  std::string episodes_csv_text_;  ///< every byte written to episodes.csv (for its checksum)
+  /// SHA-256 of each file of episodes/NNN, by path relative to the run directory.
+  std::map<std::string, std::string> file_sha256_;
+  std::vector<std::string> repairs_;
   nlohmann::json summary_;
 };
 
@@ -166,7 +216,7 @@ struct RunResult {
 RunResult read_run(const std::filesystem::path& dir, const Registry* registry);
 
 /// The state saved in DIR/checkpoint.json. Throws drops::Error naming the file when it is missing,
-/// malformed or of another format.
+/// malformed, of another format or (format 2) fails its own checksum (edited by hand).
 algo::RunState read_checkpoint(const std::filesystem::path& dir);
 
 /// A trajectory file (episodes/NNN/real.csv or predicted.csv) read back: its column names and a

@@ -35,7 +35,8 @@ struct CmaesOptions {
   long max_evaluations = 10000;
   /// Budget of one run (>= 0; 0 = only the total budget applies). A run that would exceed it stops
   /// ("MaxRunEvals") and the search restarts, so restarts happen even when no tolerance fires (e.g.
-  /// on a noisy objective). The small BIPOP runs keep their own, smaller budget.
+  /// on a noisy objective). The small BIPOP runs keep their own, smaller budget. A run evaluates
+  /// at least one generation, also when its budget is smaller than its population.
   long max_run_evaluations = 0;
   /// Evaluate x0 first (one evaluation, counted) and treat it as the best seen of every run that
   /// starts from x0: elitism re-injects it until a sample beats it, and the search returns it when

@@ -53,6 +53,7 @@ class ModelSystem final : public System {
 struct RolloutStats {
   long rollouts = 0;         ///< model rollouts performed
   long nonfinite_steps = 0;  ///< steps whose prediction was NaN/inf (the rollout stopped there)
+  long absorbed = 0;         ///< rollouts that reached an absorbing state (Task::absorbing)
 };
 
 /// Mean return of options.rollouts Monte-Carlo rollouts on `model` for each policy parameter vector
@@ -60,7 +61,10 @@ struct RolloutStats {
 /// thetas[k] (dim policy.param_dim()), using the random stream seeds[k] (rollout r uses
 /// derive_seed(seeds[k], {r})). Rollouts are batched (options.batch) and run in parallel; the
 /// result is independent of the thread count. Non-finite predictions stop that rollout (remaining
-/// rewards 0) and are counted in *stats. returns: resized to thetas.size().
+/// rewards 0) and are counted in *stats; a rollout that reaches an absorbing state
+/// (Task::absorbing) stops there and gets that state's reward for every remaining step. Stopped
+/// rollouts leave the batch: the model predicts the running ones only. returns: resized to
+/// thetas.size().
 /// Throws InvalidArgument on size mismatch.
 void evaluate_policies(const Task& task, const model::DynamicsModel& model,
                        const policy::Policy& policy, const std::vector<VectorXd>& thetas,

@@ -42,6 +42,14 @@ class Task {
   virtual double reward(const VectorXd& x) const = 0;
   /// Whether an episode solved the task (task-specific criterion).
   virtual bool solved(const Trajectory& trajectory) const = 0;
+  /// Whether x (dim E) is absorbing: a state the system does not leave and whose reward every
+  /// later step of the episode repeats (e.g. a robot that fell over). Rollouts on a model stop at
+  /// an absorbing state and add reward(x) for each remaining step, which saves the predictions of
+  /// the rest of the episode; episodes on the real system run to the end. Default: none.
+  virtual bool absorbing(const VectorXd& x) const {
+    (void)x;
+    return false;
+  }
 };
 
 class System;

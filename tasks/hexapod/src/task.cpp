@@ -87,6 +87,11 @@ bool HexapodTask::solved(const rollout::Trajectory& trajectory) const {
   return walking_speed(trajectory) >= options_.solved_speed;
 }
 
+bool HexapodTask::absorbing(const VectorXd& x) const {
+  check_size("HexapodTask::absorbing x", kStateDim, x.size());
+  return body_tilt(x[kBodyRpy], x[kBodyRpy + 1]) >= options_.tilt_limit;
+}
+
 double HexapodTask::walking_speed(const rollout::Trajectory& trajectory) const {
   return hexapod::walking_speed(trajectory, options_.dt);
 }

@@ -73,6 +73,9 @@ class HexapodTask final : public rollout::Task {
   double reward(const VectorXd& x) const override;
   /// walking_speed >= solved_speed and no state tilted >= tilt_limit.
   bool solved(const rollout::Trajectory& trajectory) const override;
+  /// A fall: body_tilt >= tilt_limit. The robot does not get up again (its reward, with the tilt
+  /// penalty, repeats to the end of the episode), so model rollouts stop there. x: dim 48.
+  bool absorbing(const VectorXd& x) const override;
   /// walking_speed(trajectory, dt()).
   double walking_speed(const rollout::Trajectory& trajectory) const;
   const HexapodTaskOptions& options() const { return options_; }
