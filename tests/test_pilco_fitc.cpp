@@ -25,7 +25,8 @@ MatrixXd Se(const MatrixXd& A, const MatrixXd& B, const VectorXd& l, double sf2)
   MatrixXd K(A.rows(), B.rows());
   for (int i = 0; i < A.rows(); ++i)
     for (int j = 0; j < B.rows(); ++j)
-      K(i, j) = sf2 * std::exp(-0.5 * ((A.row(i) - B.row(j)).transpose().cwiseQuotient(l)).squaredNorm());
+      K(i, j) =
+          sf2 * std::exp(-0.5 * ((A.row(i) - B.row(j)).transpose().cwiseQuotient(l)).squaredNorm());
   return K;
 }
 
@@ -57,7 +58,8 @@ TEST(PilcoFitc, WithEveryTrainingInputAsInducingInputIsTheFullGp) {
   gp.set_h_params(h);
   gp.compute(p.X, p.y);
   const auto full = drops::pilco::gp_block(gp);
-  EXPECT_LT((b.weights - full.weights).cwiseAbs().maxCoeff(), 1e-7 * full.weights.cwiseAbs().maxCoeff());
+  EXPECT_LT((b.weights - full.weights).cwiseAbs().maxCoeff(),
+            1e-7 * full.weights.cwiseAbs().maxCoeff());
   EXPECT_LT((b.k_inverse - full.k_inverse).cwiseAbs().maxCoeff(),
             1e-7 * full.k_inverse.cwiseAbs().maxCoeff());
 }
@@ -74,12 +76,15 @@ TEST(PilcoFitc, MatchesTheDenseFitcPredictiveMeanAndVariance) {
   Kmm.diagonal().array() += jitter * p.sf2;
   const MatrixXd Kmn = Se(Z, p.X, p.l, p.sf2);
   const MatrixXd Kmm_inv = Kmm.inverse();
-  const VectorXd lam = (VectorXd::Constant(60, p.sf2) - (Kmn.transpose() * Kmm_inv * Kmn).diagonal()).array() + p.sn2;
+  const VectorXd lam =
+      (VectorXd::Constant(60, p.sf2) - (Kmn.transpose() * Kmm_inv * Kmn).diagonal()).array() +
+      p.sn2;
   const MatrixXd Sig = (Kmm + Kmn * lam.cwiseInverse().asDiagonal() * Kmn.transpose()).inverse();
   const VectorXd w = Sig * Kmn * lam.cwiseInverse().asDiagonal() * p.y;
   const MatrixXd Ksq = Se(p.Xq, Z, p.l, p.sf2);
   const VectorXd mean = Ksq * w;
-  const VectorXd var = VectorXd::Constant(7, p.sf2) - (Ksq * (Kmm_inv - Sig) * Ksq.transpose()).diagonal();
+  const VectorXd var =
+      VectorXd::Constant(7, p.sf2) - (Ksq * (Kmm_inv - Sig) * Ksq.transpose()).diagonal();
   // Through the block: block_values for the mean, se_moments at Sigma = 0 for the variance.
   const VectorXd m2 = drops::pilco::block_values(b, p.Xq);
   EXPECT_LT((m2 - mean).cwiseAbs().maxCoeff(), 1e-8);
@@ -95,8 +100,10 @@ TEST(PilcoFitc, MatchesTheDenseFitcPredictiveMeanAndVariance) {
 
 TEST(PilcoFitc, RejectsBadInputWithAMessage) {
   const Problem p = MakeProblem(10, 2, 3);
-  EXPECT_THROW(drops::pilco::fitc_block(p.X, p.y, MatrixXd(0, 2), p.l, 1, 0.01), drops::InvalidArgument);
-  EXPECT_THROW(drops::pilco::fitc_block(p.X, p.y.head(5), p.X, p.l, 1, 0.01), drops::InvalidArgument);
+  EXPECT_THROW(drops::pilco::fitc_block(p.X, p.y, MatrixXd(0, 2), p.l, 1, 0.01),
+               drops::InvalidArgument);
+  EXPECT_THROW(drops::pilco::fitc_block(p.X, p.y.head(5), p.X, p.l, 1, 0.01),
+               drops::InvalidArgument);
   EXPECT_THROW(drops::pilco::fitc_block(p.X, p.y, p.X, -p.l, 1, 0.01), drops::InvalidArgument);
   EXPECT_THROW(drops::pilco::fitc_block(p.X, p.y, p.X, p.l, 1, 0.0), drops::InvalidArgument);
 }
@@ -195,8 +202,8 @@ TEST(PilcoExpectedCost, GradientMatchesFiniteDifferencesOnAPriorMeanPlusFitcMode
     h[Din + 1] = std::log(0.02);
     prior_gp.set_h_params(h);
     prior_gp.compute(X.topRows(20), Y.col(a).head(20));
-    const VectorXd residual = Y.col(a) - 0.8 * drops::pilco::block_values(
-                                                   drops::pilco::gp_mean_block(prior_gp), X);
+    const VectorXd residual =
+        Y.col(a) - 0.8 * drops::pilco::block_values(drops::pilco::gp_mean_block(prior_gp), X);
     drops::pilco::SeOutput out;
     drops::pilco::SeBlock pm = drops::pilco::gp_mean_block(prior_gp);
     pm.weights *= 0.8;

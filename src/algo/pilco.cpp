@@ -56,6 +56,7 @@ class RawStateTask final : public rollout::Task {
   void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override { obs = x; }
   double reward(const VectorXd& x) const override { return task_.reward(x); }
   bool solved(const rollout::Trajectory& t) const override { return task_.solved(t); }
+  bool absorbing(const VectorXd& x) const override { return task_.absorbing(x); }
 
  private:
   const rollout::Task& task_;
@@ -131,10 +132,10 @@ using PriorMean = std::vector<pilco::SeBlock>;
 
 /// A trained dynamics model: the moment-matching model and what the next training starts from.
 struct Dynamics {
-  pilco::SeModel model;      ///< per output [prior mean block (with a prior), GP block]
-  std::vector<VectorXd> h;   ///< per output [log l (Din), log sigma_f, log sigma_n]
-  int points = 0;            ///< N, the transitions learned from
-  int inducing = 0;          ///< M, the inducing inputs of the sparse GP (0: the full GP)
+  pilco::SeModel model;     ///< per output [prior mean block (with a prior), GP block]
+  std::vector<VectorXd> h;  ///< per output [log l (Din), log sigma_f, log sigma_n]
+  int points = 0;           ///< N, the transitions learned from
+  int inducing = 0;         ///< M, the inducing inputs of the sparse GP (0: the full GP)
   long rprop_iterations = 0;
   VectorXd log_likelihoods;  ///< per output, on the (subset of) points the kernel was fitted on
   double seconds = 0;
@@ -146,7 +147,8 @@ struct Dynamics {
 VectorXd initial_h(const MatrixXd& X, const VectorXd& y) {
   auto stdev = [](const auto& v) {
     const double m = v.mean();
-    const double s = v.size() > 1 ? std::sqrt((v.array() - m).square().sum() / (v.size() - 1)) : 1.0;
+    const double s =
+        v.size() > 1 ? std::sqrt((v.array() - m).square().sum() / (v.size() - 1)) : 1.0;
     return std::max(s, 1e-6);
   };
   VectorXd h(X.cols() + 2);
@@ -185,7 +187,8 @@ Dynamics learn_dynamics(const pilco::TaskModel& tm, const std::vector<Transition
     Rng rng(subset_seed);
     for (Index k = 0; k < o.max_points; ++k) {
       const Index j = k + static_cast<Index>(rng.uniform() * static_cast<double>(N - k));
-      std::swap(subset[static_cast<std::size_t>(k)], subset[static_cast<std::size_t>(std::min(j, N - 1))]);
+      std::swap(subset[static_cast<std::size_t>(k)],
+                subset[static_cast<std::size_t>(std::min(j, N - 1))]);
     }
     subset.resize(static_cast<std::size_t>(o.max_points));
     std::sort(subset.begin(), subset.end());
@@ -270,11 +273,13 @@ pilco::RbfPolicy initial_policy(const pilco::TaskModel& tm, const VectorXd& x0, 
   for (Index i = 0; i < d; ++i) {
     mp[i] = m[c.policy_inputs[static_cast<std::size_t>(i)]];
     for (Index j = 0; j < d; ++j)
-      Sp(i, j) = S(c.policy_inputs[static_cast<std::size_t>(i)], c.policy_inputs[static_cast<std::size_t>(j)]);
+      Sp(i, j) = S(c.policy_inputs[static_cast<std::size_t>(i)],
+                   c.policy_inputs[static_cast<std::size_t>(j)]);
   }
   // A square root that also works for a singular Sigma0.
   const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(0.5 * (Sp + Sp.transpose()));
-  const MatrixXd root = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  const MatrixXd root =
+      eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
   Rng rng(seed);
   const int U = c.control_dim();
   MatrixXd C(centres, d), T(centres, U);
@@ -341,15 +346,17 @@ Prediction predict(const pilco::ExpectedCost& J, const VectorXd& theta,
   tr.states.resize(H + 1, D);
   tr.actions.resize(H, U);
   tr.rewards.resize(H);
-  for (Index t = 0; t <= H; ++t) tr.states.row(t) = pt.means[static_cast<std::size_t>(t)].transpose();
-  for (Index t = 0; t < H; ++t) tr.actions.row(t) = pt.action_means[static_cast<std::size_t>(t)].transpose();
+  for (Index t = 0; t <= H; ++t)
+    tr.states.row(t) = pt.means[static_cast<std::size_t>(t)].transpose();
+  for (Index t = 0; t < H; ++t)
+    tr.actions.row(t) = pt.action_means[static_cast<std::size_t>(t)].transpose();
   if (tm.reward_width > 0) {
     const pilco::SaturatingCost reward_cost = tm.cost(tm.reward_width);
     for (Index t = 1; t <= H; ++t)
-      tr.rewards[t - 1] = 1.0 - pilco::state_cost(tm.config, reward_cost,
-                                                  pt.means[static_cast<std::size_t>(t)],
-                                                  pt.covs[static_cast<std::size_t>(t)])
-                                    .mean;
+      tr.rewards[t - 1] =
+          1.0 - pilco::state_cost(tm.config, reward_cost, pt.means[static_cast<std::size_t>(t)],
+                                  pt.covs[static_cast<std::size_t>(t)])
+                    .mean;
     p.predicted_return = tr.rewards.sum();
   } else {
     tr.rewards.setConstant(kNaN);
@@ -376,7 +383,7 @@ struct Setting {
   pilco::SaturatingCost cost;  ///< of the optimisation's width
   VectorXd x0;
   int horizon = 0;
-  double fail_value = 0;       ///< J counted for a failed evaluation
+  double fail_value = 0;  ///< J counted for a failed evaluation
 };
 
 /// An episode's plan: the policy to run, the model's prediction of it and the facts to record.
@@ -410,20 +417,23 @@ Plan learned_plan(const Setting& s, LoopState& st, const PriorMean& prior, std::
                   const std::function<bool()>& stop) {
   Plan p;
   status("model", 0, 0);
-  p.dynamics = learn_dynamics(s.tm, st.data, prior, st.h, s.o, derive_seed(base, {episode, kInducing}));
+  p.dynamics =
+      learn_dynamics(s.tm, st.data, prior, st.h, s.o, derive_seed(base, {episode, kInducing}));
   st.h = p.dynamics.h;
   p.model_seconds = p.dynamics.seconds;
 
   const auto t_policy = Clock::now();
-  pilco::RbfPolicy proto = initial_policy(s.tm, s.x0, s.o.centres, derive_seed(base, {kPolicyInit}));
+  pilco::RbfPolicy proto =
+      initial_policy(s.tm, s.x0, s.o.centres, derive_seed(base, {kPolicyInit}));
   if (st.theta.size() == 0) st.theta = proto.params();
-  const pilco::ExpectedCost J(s.tm.config, p.dynamics.model, proto, s.cost, s.x0,
-                              s.tm.initial_cov, s.horizon, s.o.discount);
-  const double max_j = s.o.discount == 1.0 ? s.horizon
-                                           : s.o.discount * (1 - std::pow(s.o.discount, s.horizon)) /
-                                                 (1 - s.o.discount);
-  const PolicySearch search = optimize_policy(
-      J, st.theta, s.o.lbfgs, s.fail_value, [&](const opt::LbfgsProgress& pr) {
+  const pilco::ExpectedCost J(s.tm.config, p.dynamics.model, proto, s.cost, s.x0, s.tm.initial_cov,
+                              s.horizon, s.o.discount);
+  const double max_j =
+      s.o.discount == 1.0
+          ? s.horizon
+          : s.o.discount * (1 - std::pow(s.o.discount, s.horizon)) / (1 - s.o.discount);
+  const PolicySearch search =
+      optimize_policy(J, st.theta, s.o.lbfgs, s.fail_value, [&](const opt::LbfgsProgress& pr) {
         status("policy", pr.evaluations, max_j - pr.best_value);
         if (stop()) return false;
         return true;
@@ -451,14 +461,17 @@ Plan learned_plan(const Setting& s, LoopState& st, const PriorMean& prior, std::
   n["objective_failures"] = static_cast<double>(search.failures);
   p.details.texts["policy"] = "L-BFGS";
   p.details.texts["lbfgs_stop"] = opt::to_string(search.lbfgs.termination);
-  if (!search.first_failure.empty()) p.details.texts["first_objective_failure"] = search.first_failure;
+  if (!search.first_failure.empty())
+    p.details.texts["first_objective_failure"] = search.first_failure;
   return p;
 }
 
 // ---------------------------------------------------------------------------------------------
 // The state saved between episodes.
 
-std::string key(const char* what, Index a) { return std::string("prior.") + std::to_string(a) + "." + what; }
+std::string key(const char* what, Index a) {
+  return std::string("prior.") + std::to_string(a) + "." + what;
+}
 
 VectorXd flat(const MatrixXd& m) { return Eigen::Map<const VectorXd>(m.data(), m.size()); }
 
@@ -556,7 +569,7 @@ opt::LbfgsOptions pilco_lbfgs_defaults() {
   opt::LbfgsOptions l;
   l.max_evaluations = 150;
   l.scale_first_step = true;  // minimize.m's first step; NLopt's full -g step fails on J
-  l.max_restarts = 50;  // bounded by the budget; see docs/pilco.md (J round-off noise)
+  l.max_restarts = 50;        // bounded by the budget; see docs/pilco.md (J round-off noise)
   l.ftol_rel = 1e-8;
   l.xtol_rel = 1e-8;
   return l;
@@ -570,8 +583,9 @@ bool PilcoOptions::IsValid(std::string* why) const {
   if (episodes < 1) return fail("episodes must be >= 1");
   if (random_rollouts < 1) return fail("random_rollouts must be >= 1");
   if (with_prior && sim_episodes <= random_rollouts)
-    return fail("sim_episodes must be > random_rollouts (the simulation phase must end with a "
-                "learned policy)");
+    return fail(
+        "sim_episodes must be > random_rollouts (the simulation phase must end with a "
+        "learned policy)");
   if (centres < 1) return fail("centres must be >= 1");
   if (!(cost_width >= 0) || !std::isfinite(cost_width)) return fail("cost_width must be >= 0");
   if (!(discount > 0 && discount <= 1)) return fail("discount must be in (0, 1]");
@@ -600,29 +614,37 @@ RunSummary Pilco::run(const Problem& problem, const Callbacks& callbacks,
 
 RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::System& real,
                      std::shared_ptr<const model::MeanFunction> prior,
-                     const model::PriorParameters& prior_parameters,
-                     const pilco::TaskModel& tm, const PilcoOptions& o,
-                     const Callbacks& callbacks, const RunState* resume) {
+                     const model::PriorParameters& prior_parameters, const pilco::TaskModel& tm,
+                     const PilcoOptions& o, const Callbacks& callbacks, const RunState* resume) {
   // 0. Checks and what is fixed during the run.
   std::string why;
   if (!o.IsValid(&why)) throw InvalidArgument("PILCO options: " + why);
   if (!tm.IsValid(&why)) throw InvalidArgument(why);
   if (!task) throw InvalidArgument("run_pilco: task is null");
-  check_size("run_pilco: task model state_dim vs task state_dim", task->state_dim(), tm.config.state_dim);
+  check_size("run_pilco: task model state_dim vs task state_dim", task->state_dim(),
+             tm.config.state_dim);
   check_size("run_pilco: task model controls (max_u) vs task action_dim", task->action_dim(),
              tm.config.control_dim());
   if (o.with_prior) {
-    if (!prior) throw InvalidArgument("run_pilco: PILCO with priors needs the task's simulator prior");
+    if (!prior)
+      throw InvalidArgument("run_pilco: PILCO with priors needs the task's simulator prior");
     check_size("run_pilco: prior state_dim vs task", task->state_dim(), prior->state_dim());
     check_size("run_pilco: prior action_dim vs task", task->action_dim(), prior->action_dim());
   }
   const double width = o.cost_width > 0 ? o.cost_width : tm.reward_width;
   if (!(width > 0))
-    throw InvalidArgument("run_pilco: cost width: the task model gives no reward width; set the "
-                          "cost width (PilcoOptions::cost_width, pilco.cost_width)");
+    throw InvalidArgument(
+        "run_pilco: cost width: the task model gives no reward width; set the "
+        "cost width (PilcoOptions::cost_width, pilco.cost_width)");
   const auto t_run = Clock::now();
   const RawStateTask raw(*task);
-  const Setting s{*task, raw, tm, o, tm.cost(width), task->initial_state(), task->horizon(),
+  const Setting s{*task,
+                  raw,
+                  tm,
+                  o,
+                  tm.cost(width),
+                  task->initial_state(),
+                  task->horizon(),
                   2.0 * task->horizon()};
   const Index D = tm.config.state_dim, U = tm.config.control_dim();
   const Index Din = static_cast<Index>(tm.config.dynamics_inputs.size()) + U;
@@ -662,7 +684,8 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     st.data = resume->data;
     st.h = resume->model.h_params;
     for (const auto& h : st.h) check_size("resume: GP hyper-parameters", Din + 2, h.size());
-    if (const auto it = resume->extra.find("theta"); it != resume->extra.end()) st.theta = it->second;
+    if (const auto it = resume->extra.find("theta"); it != resume->extra.end())
+      st.theta = it->second;
     best_theta = resume->best_theta;
     best_return = resume->best_return;
     summary.first_solved_episode = resume->first_solved_episode;
@@ -694,9 +717,8 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
       auto sim_status = [&](const char*, long evals, double best) {
         if (callbacks.on_status) callbacks.on_status(Status{e, "simulation", evals, best});
       };
-      Plan plan = e <= o.random_rollouts
-                      ? random_plan(s, derive_seed(base, {ep, kRandomActions}))
-                      : learned_plan(s, ss, {}, base, ep, sim_status, stop);
+      Plan plan = e <= o.random_rollouts ? random_plan(s, derive_seed(base, {ep, kRandomActions}))
+                                         : learned_plan(s, ss, {}, base, ep, sim_status, stop);
       if (plan.interrupted) {
         summary.interrupted = true;
         summary.seconds = seconds_since(t_run);

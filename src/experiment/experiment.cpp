@@ -198,7 +198,7 @@ class PilcoPlugin final : public AlgorithmPlugin {
         {"pilco.cost_width", "double", "", 1e-6, 1e6, {}, "task distance",
          "algorithms pilco, pilco_prior: width w of the saturating cost 1 - exp(-d^2 / (2 w^2)) "
          "(empty = the task's reward width, so that PILCO optimises the task's expected return: "
-         "0.5 m on the pendubot; pilco-matlab's pendubot uses 0.25)"},
+         "e.g. 0.5 m; pilco-matlab's double-pendulum swing-up uses 0.25)"},
         {"pilco.centres", "int", num(d.centres), 1, 100000, {}, "-",
          "centres (pseudo-inputs) of the RBF policy (paper §V-A, pilco-matlab: 200)"},
         {"pilco.random_rollouts", "int", num(d.random_rollouts), 1, 1000, {}, "-",
@@ -225,7 +225,7 @@ class PilcoPlugin final : public AlgorithmPlugin {
          "soft walls: length scales within this factor of the input's spread (pilco-matlab: 100)"},
         {"pilco.max_points", "int", num(d.max_points), 1, 1000000, {}, "-",
          "beyond this many transitions the dynamics GPs are sparse (FITC with this many inducing "
-         "inputs, a random subset of the data; pilco-matlab's pendubot: 300)"},
+         "inputs, a random subset of the data; pilco-matlab's double-pendulum swing-up: 300)"},
     };
   }
   bool uses_prior(const Settings&) const override { return with_prior_; }

@@ -36,7 +36,8 @@ VectorXd TaskModel::dynamics_input(const VectorXd& x, const VectorXd& u) const {
 VectorXd TaskModel::policy_input(const VectorXd& x) const {
   const VectorXd a = augment(x);
   VectorXd in(config.policy_inputs.size());
-  for (Index k = 0; k < in.size(); ++k) in[k] = a[config.policy_inputs[static_cast<std::size_t>(k)]];
+  for (Index k = 0; k < in.size(); ++k)
+    in[k] = a[config.policy_inputs[static_cast<std::size_t>(k)]];
   return in;
 }
 
@@ -73,10 +74,12 @@ bool TaskModel::IsValid(std::string* why) const {
   if (!(reward_width >= 0.0) || !std::isfinite(reward_width))
     return fail("reward_width: expected a finite value >= 0, got " + std::to_string(reward_width));
   if (initial_cov.rows() != D || initial_cov.cols() != D)
-    return fail("initial_cov: expected " + std::to_string(D) + " x " + std::to_string(D) + ", got " +
-                std::to_string(initial_cov.rows()) + " x " + std::to_string(initial_cov.cols()));
-  if (!initial_cov.allFinite() || (initial_cov - initial_cov.transpose()).cwiseAbs().maxCoeff() >
-                                      1e-12 * (1.0 + initial_cov.cwiseAbs().maxCoeff()) ||
+    return fail("initial_cov: expected " + std::to_string(D) + " x " + std::to_string(D) +
+                ", got " + std::to_string(initial_cov.rows()) + " x " +
+                std::to_string(initial_cov.cols()));
+  if (!initial_cov.allFinite() ||
+      (initial_cov - initial_cov.transpose()).cwiseAbs().maxCoeff() >
+          1e-12 * (1.0 + initial_cov.cwiseAbs().maxCoeff()) ||
       (initial_cov.diagonal().array() < 0).any())
     return fail("initial_cov: expected a finite symmetric matrix with a non-negative diagonal");
   if (policy_length_scales.size() != 0 &&

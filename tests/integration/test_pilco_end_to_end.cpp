@@ -6,8 +6,8 @@
 #include <chrono>
 #include <cstdio>
 
-#include "drops/algo/pilco.hpp"
 #include "../pendulum_task.hpp"
+#include "drops/algo/pilco.hpp"
 
 TEST(PilcoEndToEnd, LearnsThePendulumSwingUp) {
   drops::algo::PilcoOptions o;
@@ -18,9 +18,11 @@ TEST(PilcoEndToEnd, LearnsThePendulumSwingUp) {
   drops::algo::Callbacks cb;
   cb.on_episode = [&](const drops::algo::EpisodeRecord& e) {
     eps.push_back(e);
-    std::printf("episode %d: return %.2f predicted %.2f solved %d (model %.1f s, policy %.1f s, %ld evaluations)\n",
-                e.episode, e.real_return, e.predicted_return, e.solved ? 1 : 0, e.model_seconds,
-                e.policy_seconds, e.evaluations);
+    std::printf(
+        "episode %d: return %.2f predicted %.2f solved %d (model %.1f s, policy %.1f s, %ld "
+        "evaluations)\n",
+        e.episode, e.real_return, e.predicted_return, e.solved ? 1 : 0, e.model_seconds,
+        e.policy_seconds, e.evaluations);
     std::fflush(stdout);
   };
   const drops::testing::PendulumSystem real;

@@ -26,8 +26,8 @@ gp::RpropOptions pilco_rprop_defaults();
 /// ftol_rel 1e-8 on J, xtol_rel 1e-8. Thread-safe.
 opt::LbfgsOptions pilco_lbfgs_defaults();
 
-/// Options of PILCO and PILCO with priors. Defaults follow pilco-matlab's pendubot scenario
-/// (baselines.md §1b) where drops can, and say where it does not.
+/// Options of PILCO and PILCO with priors. Defaults follow pilco-matlab's double-pendulum
+/// swing-up scenario (baselines.md §1b) where drops can, and say where it does not.
 struct PilcoOptions {
   /// PILCO with priors (Cutler & How 2015; baselines.md §2): PILCO on the simulator prior first,
   /// then PILCO on the real system with the simulator GPs' means as the model's prior mean and the
@@ -46,7 +46,8 @@ struct PilcoOptions {
   int centres = 200;
   /// Width w of the saturating cost (units of the task's distance, e.g. m), > 0; 0 = the task's
   /// reward width (TaskModel::reward_width: then PILCO optimises exactly the task's expected
-  /// return; the pendubot's 0.5 m, Black-DROPS's sigma_c). pilco-matlab's pendubot uses 0.25.
+  /// return; 0.5 m in the paper's swing-up, Black-DROPS's sigma_c; pilco-matlab's scenario uses
+  /// 0.25).
   double cost_width = 0.0;
   /// Discount gamma of J = sum_t gamma^t E[c(x_t)], in (0, 1] (pilco-matlab: 1).
   double discount = 1.0;
@@ -57,7 +58,7 @@ struct PilcoOptions {
   /// GP training (per output, warm-started from the previous episode's hyper-parameters).
   gp::RpropOptions rprop = pilco_rprop_defaults();
   /// Sparse GP beyond this many points: FITC with max_points inducing inputs, a random subset of
-  /// the training inputs (pilco-matlab's pendubot: 300 inducing inputs, which it also optimises;
+  /// the training inputs (pilco-matlab's swing-up: 300 inducing inputs, which it also optimises;
   /// drops keeps them fixed and fits the kernel on that subset), >= 1.
   int max_points = 300;
 
@@ -67,7 +68,8 @@ struct PilcoOptions {
 
 /// PILCO (baselines.md §1a) on the real system, or with options.with_prior PILCO with priors
 /// (§2a) on the simulator `prior` at prior_parameters.values, then on the real system:
-///   1. (with a prior) simulation phase: PILCO for sim_episodes episodes on the simulator (its first
+///   1. (with a prior) simulation phase: PILCO for sim_episodes episodes on the simulator (its
+///   first
 ///      random_rollouts with random actions); keeps the last GPs (the ones that chose the last
 ///      policy) as the prior mean m_a(x) (their posterior means, an RBF network each) and that
 ///      policy theta_sim; reported through on_phase ("simulation"), then saved (on_state with
@@ -75,20 +77,20 @@ struct PilcoOptions {
 ///   2. real episodes 1..random_rollouts (without a prior): uniformly random actions in
 ///      [-max_u, max_u] at every step;
 ///   3. every other real episode: train one GP per output on all real transitions (inputs
-///      [x_aug[dynamics_inputs], u], targets dx - m(x); Rprop with PILCO's soft walls, warm-started;
-///      FITC beyond max_points), optimise the RBF policy on J(theta) with L-BFGS from the current
-///      policy, run it on the system; with a prior, the first real episode runs theta_sim planned
-///      on the simulation model (there is no real data yet).
+///      [x_aug[dynamics_inputs], u], targets dx - m(x); Rprop with PILCO's soft walls,
+///      warm-started; FITC beyond max_points), optimise the RBF policy on J(theta) with L-BFGS from
+///      the current policy, run it on the system; with a prior, the first real episode runs
+///      theta_sim planned on the simulation model (there is no real data yet).
 /// Each episode's record holds the real trajectory, the policy run (theta, dim 1406 for the
-/// pendubot; empty for random actions), the model's predicted trajectory (state means, control
-/// means, expected rewards) and predicted return sum_t (1 - E[c_{reward_width}(x_t)]) (NaN when
-/// the task gives no reward width), and details (points, sparse, L-BFGS counts and stop reason,
-/// J before/after). The run's state after each episode (data, GP hyper-parameters, theta, the prior
-/// blocks) goes to on_state: a run resumed from it continues exactly. Interaction time counts real
-/// episodes only. Throws InvalidArgument on invalid options, a task model that does not fit the
-/// task, a missing prior when with_prior, or a resume state that does not fit; NumericalError from
-/// the GP and moment matching; exceptions from callbacks propagate. Not thread-safe (uses
-/// parallel_for); the results do not depend on the thread count.
+/// paper's swing-up; empty for random actions), the model's predicted trajectory (state means,
+/// control means, expected rewards) and predicted return sum_t (1 - E[c_{reward_width}(x_t)]) (NaN
+/// when the task gives no reward width), and details (points, sparse, L-BFGS counts and stop
+/// reason, J before/after). The run's state after each episode (data, GP hyper-parameters, theta,
+/// the prior blocks) goes to on_state: a run resumed from it continues exactly. Interaction time
+/// counts real episodes only. Throws InvalidArgument on invalid options, a task model that does not
+/// fit the task, a missing prior when with_prior, or a resume state that does not fit;
+/// NumericalError from the GP and moment matching; exceptions from callbacks propagate. Not
+/// thread-safe (uses parallel_for); the results do not depend on the thread count.
 RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::System& real,
                      std::shared_ptr<const model::MeanFunction> prior,
                      const model::PriorParameters& prior_parameters,
