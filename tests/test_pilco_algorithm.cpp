@@ -3,14 +3,19 @@
 // independence, resuming from a saved state, the first real episode of PILCO with priors, and the
 // experiment layer's checks. The learning itself is tested end to end (integration/, slow).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "drops/algo/pilco.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/experiment/experiment.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "fixtures.hpp"
 #include "pendulum_task.hpp"
 
@@ -44,7 +49,7 @@ struct Recorded {
 };
 
 Recorded RunPilco(const PilcoOptions& o, const drops::rollout::System& real,
-             const RunState* resume = nullptr) {
+                  const RunState* resume = nullptr) {
   Recorded r;
   drops::algo::Callbacks cb;
   cb.on_episode = [&](const EpisodeRecord& e) { r.episodes.push_back(e); };
@@ -139,7 +144,8 @@ TEST(Pilco, SameSeedGivesIdenticalEpisodesWithOneAndTwoThreads) {
     two = RunPilco(Tiny(), real);
   }
   ASSERT_EQ(one.episodes.size(), two.episodes.size());
-  for (std::size_t k = 0; k < one.episodes.size(); ++k) ExpectSameEpisode(one.episodes[k], two.episodes[k]);
+  for (std::size_t k = 0; k < one.episodes.size(); ++k)
+    ExpectSameEpisode(one.episodes[k], two.episodes[k]);
 }
 
 TEST(Pilco, AResumedRunContinuesWithTheEpisodesOfAnUninterruptedOne) {
@@ -220,7 +226,8 @@ TEST(Pilco, InvalidOptionsAndTaskModelsAreRejected) {
   EXPECT_NE(why.find("sim_episodes"), std::string::npos);
   o = {};
   o.cost_width = -1;
-  EXPECT_THROW(drops::algo::Pilco(o, drops::testing::pendulum_task_model()), drops::InvalidArgument);
+  EXPECT_THROW(drops::algo::Pilco(o, drops::testing::pendulum_task_model()),
+               drops::InvalidArgument);
   auto tm = drops::testing::pendulum_task_model();
   tm.cost_target.resize(3);
   EXPECT_THROW(drops::algo::Pilco(PilcoOptions{}, tm), drops::InvalidArgument);
@@ -228,8 +235,9 @@ TEST(Pilco, InvalidOptionsAndTaskModelsAreRejected) {
   const PendulumSystem real;
   auto tm3 = drops::testing::pendulum_task_model();
   tm3.config.max_u = Eigen::Vector2d(1, 1);
-  EXPECT_THROW(drops::algo::run_pilco(std::make_shared<PendulumTask>(), real, nullptr, {}, tm3, Tiny()),
-               drops::InvalidArgument);
+  EXPECT_THROW(
+      drops::algo::run_pilco(std::make_shared<PendulumTask>(), real, nullptr, {}, tm3, Tiny()),
+      drops::InvalidArgument);
   // PILCO with priors without a prior.
   EXPECT_THROW(drops::algo::run_pilco(std::make_shared<PendulumTask>(), real, nullptr, {},
                                       drops::testing::pendulum_task_model(), Tiny(true)),
@@ -250,7 +258,8 @@ TEST(PilcoExperiment, ThePendubotRunsPilcoAndPilcoWithPriorsFromItsSettings) {
   EXPECT_EQ(o.centres, 200);
   EXPECT_EQ(o.sim_episodes, 40);
   EXPECT_EQ(o.cost_width, 0.0);  // the task's reward width
-  EXPECT_THROW(drops::fixtures::experiment({"algorithm=pilco", "pilco.centres=0"}), drops::ConfigError);
+  EXPECT_THROW(drops::fixtures::experiment({"algorithm=pilco", "pilco.centres=0"}),
+               drops::ConfigError);
   EXPECT_THROW(drops::fixtures::experiment({"algorithm=pilco_prior", "pilco.sim_episodes=1"}),
                drops::ConfigError);
 }
@@ -293,4 +302,44 @@ TEST(PilcoExperiment, ATaskWithoutAPilcoDescriptionGetsAClearConfigError) {
       EXPECT_NE(m.find("does not describe itself to PILCO"), std::string::npos) << m;
     }
   }
+}
+
+TEST(PilcoExperiment, ARunDirectoryKeepsTheSimulationPhaseAndReopensAtZeroEpisodes) {
+  // PILCO with priors saves its state after the simulation phase, before any real episode
+  // (episodes_done = 0): the run directory records the phase and --resume accepts that state.
+  const auto e = drops::fixtures::experiment({"algorithm=pilco_prior", "prior.preset=tunable"});
+  const std::string yaml = drops::experiment::to_yaml(drops::fixtures::registry(), e.settings);
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("drops-pilco-phase-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  PhaseRecord phase;
+  phase.name = "simulation";
+  phase.summary.numbers["episodes"] = 3;
+  phase.summary.texts["system"] = "the simulator";
+  phase.episodes.resize(3);
+  phase.episodes[2].numbers["return"] = 1.5;
+  RunState st;
+  st.episodes_done = 0;
+  st.extra["simulation.theta"] = Eigen::Vector3d(1, 2, 3);
+  {
+    drops::experiment::RunDirectory rd(dir, yaml, e);
+    EXPECT_FALSE(rd.has_checkpoint());
+    rd.record_phase(phase);
+    rd.save_state(st);
+    EXPECT_TRUE(rd.has_checkpoint());
+  }
+  RunState back;
+  {
+    const auto rd = drops::experiment::RunDirectory::reopen(dir, e, yaml, &back);
+    EXPECT_TRUE(rd->repairs().empty());
+  }
+  EXPECT_EQ(back.episodes_done, 0);
+  EXPECT_EQ(back.extra.at("simulation.theta"), st.extra.at("simulation.theta"));
+  std::ifstream in(dir / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j.contains("phases")) << j.dump();
+  EXPECT_EQ(j["phases"]["simulation"]["episodes"].size(), 3u);
+  EXPECT_EQ(j["phases"]["simulation"]["episodes"][2]["return"], 1.5);
+  EXPECT_EQ(j["phases"]["simulation"]["system"], "the simulator");
+  std::filesystem::remove_all(dir);
 }

@@ -462,7 +462,9 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
     algo::RunState st;
     st.episodes_done = j.at("episodes_done").get<int>();
     st.best_theta = to_eigen(j.at("best_theta"), "best_theta");
-    st.best_return = j.at("best_return").get<double>();
+    // null: no episode yet (-inf, which JSON cannot hold; a state saved after a phase).
+    st.best_return = j.at("best_return").is_null() ? -std::numeric_limits<double>::infinity()
+                                                   : j.at("best_return").get<double>();
     st.first_solved_episode = j.at("first_solved_episode").get<int>();
     st.model.phi = to_eigen(j.at("model").at("phi"), "model.phi");
     for (const auto& h : j.at("model").at("h_params"))
