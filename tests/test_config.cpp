@@ -145,7 +145,7 @@ TEST(Config, WrongTypesAndRangesNameKeyValueAndAllowed) {
   EXPECT_NE(m.find("invalid YAML"), std::string::npos) << m;
   m = error_of("task: cartpole\n");
   EXPECT_NE(m.find("unknown task (available: pendubot)"), std::string::npos) << m;
-  m = error_of("", {"algorithm=pilco"});
+  m = error_of("", {"algorithm=ppo"});
   EXPECT_NE(m.find("black_drops, direct"), std::string::npos) << m;
 }
 

@@ -78,7 +78,7 @@ void expect_same_episodes(const std::vector<algo::EpisodeRecord>& a,
     EXPECT_EQ(x.theta, y.theta) << "episode " << y.episode;
     EXPECT_EQ(x.real_return, y.real_return) << "episode " << y.episode;
     EXPECT_EQ(x.predicted_return, y.predicted_return) << "episode " << y.episode;
-    EXPECT_EQ(x.details, y.details) << "episode " << y.episode;
+    EXPECT_EQ(x.details.numbers, y.details.numbers) << "episode " << y.episode;
   }
 }
 
@@ -136,16 +136,16 @@ TEST(IteAlgorithm, WhenTheRealSystemIsThePriorAdaptationStopsAfterOneTrial) {
   const auto& best = end.archive.archive->best();
   EXPECT_EQ(end.records[0].theta, best.theta);
   EXPECT_NEAR(end.records[0].real_return, best.fitness, 1e-9 * (1 + std::abs(best.fitness)));
-  EXPECT_EQ(end.summary.details.at("trials"), 1.0);
-  EXPECT_EQ(end.summary.details.at("stopped_by_rule"), 1.0);
-  EXPECT_EQ(end.records[0].details.at("stop"), 1.0);
+  EXPECT_EQ(end.summary.details.numbers.at("trials"), 1.0);
+  EXPECT_EQ(end.summary.details.numbers.at("stopped_by_rule"), 1.0);
+  EXPECT_EQ(end.records[0].details.numbers.at("stop"), 1.0);
   // repeat_best: the remaining episodes run the best tested cell again.
   const auto repeat = run(make({"prior.preset=actual"}), 2);
   ASSERT_EQ(repeat.records.size(), 4u);
-  EXPECT_EQ(repeat.summary.details.at("trials"), 1.0);
+  EXPECT_EQ(repeat.summary.details.numbers.at("trials"), 1.0);
   for (std::size_t i = 1; i < 4; ++i) {
     EXPECT_EQ(repeat.records[i].selected, "best_tested");
-    EXPECT_EQ(repeat.records[i].details.at("trial"), 0.0);
+    EXPECT_EQ(repeat.records[i].details.numbers.at("trial"), 0.0);
     EXPECT_EQ(repeat.records[i].theta, best.theta);
     EXPECT_EQ(repeat.records[i].real_return, repeat.records[0].real_return);
   }
@@ -168,7 +168,7 @@ TEST(IteAlgorithm, AResumedRunGivesTheTrialsOfAnUninterruptedOne) {
   EXPECT_EQ(state.extra.at(algo::kIteTrialCells).size(), 2);
   const Outcome rest = run(e, 1, &state);
   expect_same_episodes(whole.records, rest.records, 2);
-  EXPECT_EQ(rest.summary.details.at("trials"), 4.0);
+  EXPECT_EQ(rest.summary.details.numbers.at("trials"), 4.0);
 }
 
 TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirectoryEqualsAWholeRun) {
@@ -221,7 +221,7 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   const auto loaded = make({"ite.stop_ratio=0", "ite.archive=" + (dir / "archive.csv").string()});
   const Outcome again = run(loaded, 2);
   expect_same_episodes(whole.records, again.records);
-  EXPECT_EQ(again.summary.details.count("archive_evaluations"), 0u);
+  EXPECT_EQ(again.summary.details.numbers.count("archive_evaluations"), 0u);
   EXPECT_EQ(again.records[0].evaluations, 0);
   EXPECT_TRUE(*again.archive.archive == *whole.archive.archive);
 }
@@ -272,10 +272,10 @@ TEST(IteAlgorithm, TheArchiveCacheIsSharedByRunsThatDifferOnlyInTheRealSystem) {
   const Outcome first = run(make({cache}), 2);
   ASSERT_EQ(std::distance(fs::directory_iterator(tmp.path() / "cache"), fs::directory_iterator{}),
             1);
-  EXPECT_GT(first.summary.details.at("archive_evaluations"), 0.0);
+  EXPECT_GT(first.summary.details.numbers.at("archive_evaluations"), 0.0);
   // Another real system (its own keys) and another adaptation: the cached archive, no MAP-Elites.
   const Outcome second = run(make({cache, "system.m2=0.6", "ite.kappa=0.2"}), 2);
-  EXPECT_EQ(second.summary.details.count("archive_evaluations"), 0u);
+  EXPECT_EQ(second.summary.details.numbers.count("archive_evaluations"), 0u);
   EXPECT_TRUE(*second.archive.archive == *first.archive.archive);
   // Another seed or prior: another archive.
   run(make({cache, "seed=5"}), 2);

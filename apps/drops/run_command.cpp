@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 
@@ -106,6 +108,13 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
     if (!live) return;
     if (now - last < std::chrono::milliseconds(100)) return;
     last = now;
+    if (s.phase == "simulation") {  // PILCO with priors, before the real episodes
+      std::cerr << fmt::format("\r\033[K[simulation phase, episode {}] policy search: {} "
+                               "evaluations, predicted return {:.2f}",
+                               s.episode, s.evaluations, s.best)
+                << std::flush;
+      return;
+    }
     const std::string what =
         s.phase == "model"
             ? fmt::format("learning model: {} phi evaluations, score {:.2f}", s.evaluations, s.best)
@@ -132,12 +141,24 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
         r.solved ? "yes" : "no ", phi_brief(r.phi, e.setup.prior_parameters), r.model_seconds,
         r.policy_seconds, r.evaluations,
         r.selected == "start" ? std::string("  (best policy kept)")
-        : r.details.count("cell")
+        : r.details.numbers.count("cell")
             ? fmt::format("  ({} cell {})", r.selected == "trial" ? "trial of" : "best tested",
-                          static_cast<long long>(r.details.at("cell")))
+                          static_cast<long long>(r.details.numbers.at("cell")))
             : std::string());
   };
   cb.on_state = [&](const algo::RunState& st) { dir->save_state(st); };
+  cb.on_phase = [&](const algo::PhaseRecord& p) {
+    dir->record_phase(p);
+    if (live) std::cerr << "\r\033[K";
+    if (quiet) return;
+    const auto number = [&](const char* k) {
+      const auto it = p.summary.numbers.find(k);
+      return it == p.summary.numbers.end() ? std::nan("") : it->second;
+    };
+    std::cerr << fmt::format("{} phase: {} episodes, last return {:.2f} (predicted {:.2f}), {:.1f} s\n",
+                             p.name, p.episodes.size(), number("last_return"),
+                             number("last_predicted_return"), number("seconds"));
+  };
 
   algo::RunSummary summary;
   try {

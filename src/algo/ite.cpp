@@ -81,7 +81,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
   const ArchiveOutcome got = obtain_archive(problem, options_, callbacks, resume);
   if (got.source == "map_elites") {
     const ite::MapElitesSummary& m = got.map_elites;
-    summary.details = {{"archive_evaluations", static_cast<double>(m.cursor.evaluations)},
+    summary.details.numbers = {{"archive_evaluations", static_cast<double>(m.cursor.evaluations)},
                        {"archive_dead", static_cast<double>(m.dead)},
                        {"archive_invalid", static_cast<double>(m.invalid)},
                        {"archive_out_of_range", static_cast<double>(m.out_of_range)},
@@ -93,9 +93,9 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
     return summary;
   }
   const ite::Archive& archive = *got.archive;
-  summary.details["archive_cells"] = static_cast<double>(archive.size());
-  summary.details["archive_coverage"] = archive.coverage();
-  summary.details["archive_best_return"] = archive.best().fitness;
+  summary.details.numbers["archive_cells"] = static_cast<double>(archive.size());
+  summary.details.numbers["archive_coverage"] = archive.coverage();
+  summary.details.numbers["archive_best_return"] = archive.best().fitness;
 
   // 2. The adaptation: M-BOA over the archive's cells on performance = scale * return.
   ite::MboaOptions mo = options_.mboa;
@@ -150,7 +150,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
     rec.selected = trial ? "trial" : "best_tested";
     rec.predicted = problem.prior ? prior_episode(problem, rec.theta) : rollout::Trajectory{};
     rec.predicted_return = mboa.mean(cell) / scale;  // what M-BOA expects of it on the robot
-    rec.details = {{"cell", static_cast<double>(archive.linear_index(cell))},
+    rec.details.numbers = {{"cell", static_cast<double>(archive.linear_index(cell))},
                    {"trial", trial ? 1.0 : 0.0},
                    {"archive_return", elite.fitness / scale},
                    {"predicted_sd", std::sqrt(mboa.variance(cell)) / scale}};
@@ -173,7 +173,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
       trial_cells.push_back(static_cast<double>(archive.linear_index(cell)));
       trial_returns.push_back(rec.real_return);
     }
-    rec.details["stop"] = mboa.should_stop() ? 1.0 : 0.0;
+    rec.details.numbers["stop"] = mboa.should_stop() ? 1.0 : 0.0;
 
     if (rec.real_return > state.best_return) {
       state.best_return = rec.real_return;
@@ -193,8 +193,8 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
     }
   }
   const ite::MboaSummary ms = mboa.summary();
-  summary.details["trials"] = ms.trials;
-  summary.details["stopped_by_rule"] = ms.stop == ite::MboaStop::kMaxPredictedValue ? 1.0 : 0.0;
+  summary.details.numbers["trials"] = ms.trials;
+  summary.details.numbers["stopped_by_rule"] = ms.stop == ite::MboaStop::kMaxPredictedValue ? 1.0 : 0.0;
   summary.seconds = seconds_since(t_run);
   return summary;
 }

@@ -52,9 +52,9 @@ std::vector<KeySpec> build_base_keys() {
        "first task of the drops command line); `drops config --markdown` lists each task's keys"});
   add({"algorithm", "string", "", 0, 0, {}, "-",
        "the learning algorithm: black_drops (Algorithm 1 with the model of model.type; the "
-       "default), direct (CMA-ES on the real system itself, no model) or ite (IT&E: a MAP-Elites "
-       "archive on the prior, then Bayesian optimization over it on the real system); empty = "
-       "black_drops"});
+       "default), direct (CMA-ES on the real system itself, no model), ite (IT&E: a MAP-Elites "
+       "archive on the prior, then Bayesian optimization over it on the real system), pilco or "
+       "pilco_prior (PILCO and PILCO with priors, keys pilco.*); empty = black_drops"});
   add({"seed", "int", num(static_cast<double>(d.seed)), 0, 4294967295.0, {}, "-",
        "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
   add({"episodes", "int", num(d.episodes), 1, 1000, {}, "-",

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
 
 #include "drops/core/errors.hpp"
 #include "experiment_plugins.hpp"
@@ -68,6 +69,27 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   std::string why;
   if (!a.IsValid(&why)) throw ConfigError("config: " + why);
   return a;
+}
+
+algo::PilcoOptions pilco_options(const Settings& st, bool with_prior) {
+  algo::PilcoOptions o;
+  o.with_prior = with_prior;
+  o.episodes = static_cast<int>(get_int(st, "episodes"));
+  o.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
+  o.random_rollouts = static_cast<int>(get_int(st, "pilco.random_rollouts"));
+  o.sim_episodes = static_cast<int>(get_int(st, "pilco.sim_episodes"));
+  o.centres = static_cast<int>(get_int(st, "pilco.centres"));
+  o.cost_width = st.at("pilco.cost_width").empty() ? 0.0 : get_double(st, "pilco.cost_width");
+  o.discount = get_double(st, "pilco.discount");
+  o.lbfgs.max_evaluations = static_cast<int>(get_int(st, "pilco.policy_evaluations"));
+  o.lbfgs.ftol_rel = o.lbfgs.xtol_rel = get_double(st, "pilco.policy_tolerance");
+  o.rprop.max_iterations = static_cast<int>(get_int(st, "pilco.rprop_iterations"));
+  o.rprop.max_snr = get_double(st, "pilco.max_snr");
+  o.rprop.max_length_scale_ratio = get_double(st, "pilco.max_length_scale_ratio");
+  o.max_points = static_cast<int>(get_int(st, "pilco.max_points"));
+  std::string why;
+  if (!o.IsValid(&why)) throw ConfigError("config: PILCO: " + why);
+  return o;
 }
 
 namespace {
@@ -151,12 +173,94 @@ class DirectPlugin final : public AlgorithmPlugin {
   }
 };
 
+/// PILCO (with_prior false) and PILCO with priors (algo::Pilco), on tasks that describe themselves
+/// to PILCO (TaskSetup::pilco). The "pilco" plugin owns the pilco.* keys; both read them.
+class PilcoPlugin final : public AlgorithmPlugin {
+ public:
+  explicit PilcoPlugin(bool with_prior) : with_prior_(with_prior) {}
+  std::string name() const override { return with_prior_ ? "pilco_prior" : "pilco"; }
+  std::string description() const override {
+    return with_prior_
+               ? "PILCO with priors (Cutler & How 2015): PILCO on the simulator prior first "
+                 "(pilco.sim_episodes), then on the real system with the simulator GPs' means as "
+                 "the prior mean and the simulator's policy as the first real policy"
+               : "PILCO (Deisenroth & Rasmussen 2011): GP dynamics with analytic moment matching, "
+                 "an RBF policy optimised by L-BFGS on the analytic gradient of the expected cost";
+  }
+  std::vector<KeySpec> keys() const override {
+    if (with_prior_) return {};
+    const algo::PilcoOptions d;
+    auto num = [](double v) {
+      std::ostringstream o;
+      o << v;
+      return o.str();
+    };
+    return {
+        {"pilco.cost_width", "double", "", 1e-6, 1e6, {}, "task distance",
+         "algorithms pilco, pilco_prior: width w of the saturating cost 1 - exp(-d^2 / (2 w^2)) "
+         "(empty = the task's reward width, so that PILCO optimises the task's expected return: "
+         "e.g. 0.5 m; pilco-matlab's double-pendulum swing-up uses 0.25)"},
+        {"pilco.centres", "int", num(d.centres), 1, 100000, {}, "-",
+         "centres (pseudo-inputs) of the RBF policy (paper §V-A, pilco-matlab: 200)"},
+        {"pilco.random_rollouts", "int", num(d.random_rollouts), 1, 1000, {}, "-",
+         "episodes with uniformly random actions before the first learned policy (pilco-matlab: "
+         "1); for pilco_prior they begin the simulation phase"},
+        {"pilco.sim_episodes", "int", num(d.sim_episodes), 2, 100000, {}, "-",
+         "algorithm pilco_prior: PILCO episodes on the simulator prior before the real ones, the "
+         "random ones included (paper §V-A: 40); no interaction time"},
+        {"pilco.policy_evaluations", "int", num(d.lbfgs.max_evaluations), 1, 100000000, {}, "-",
+         "L-BFGS evaluations of J(theta) and its gradient per policy optimisation (pilco-matlab: "
+         "150 line searches of BFGS)"},
+        {"pilco.policy_tolerance", "double", num(d.lbfgs.ftol_rel), 0, 1, {}, "-",
+         "L-BFGS stops when an iteration changes J or theta by less than this, relatively"},
+        {"pilco.discount", "double", num(d.discount), 1e-6, 1, {}, "-",
+         "discount gamma of J = sum_t gamma^t E[c(x_t)] (pilco-matlab: 1)"},
+        {"pilco.rprop_iterations", "int", num(d.rprop.max_iterations), 1, 100000, {}, "-",
+         "Rprop iterations per dynamics GP and episode (warm-started; pilco-matlab: 300 line "
+         "searches of BFGS)"},
+        {"pilco.max_snr", "double", num(d.rprop.max_snr), 1.001, 1e9, {}, "-",
+         "soft walls of the dynamics GPs: signal-to-noise ratio at most this (pilco-matlab's "
+         "train.m: 1000)"},
+        {"pilco.max_length_scale_ratio", "double", num(d.rprop.max_length_scale_ratio), 1.001,
+         1e6, {}, "-",
+         "soft walls: length scales within this factor of the input's spread (pilco-matlab: 100)"},
+        {"pilco.max_points", "int", num(d.max_points), 1, 1000000, {}, "-",
+         "beyond this many transitions the dynamics GPs are sparse (FITC with this many inducing "
+         "inputs, a random subset of the data; pilco-matlab's double-pendulum swing-up: 300)"},
+    };
+  }
+  bool uses_prior(const Settings&) const override { return with_prior_; }
+  std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
+    const std::string head = "config key 'algorithm' = '" + name() + "': ";
+    if (!setup.pilco)
+      throw ConfigError(head + "task '" + s.at("task") +
+                        "' does not describe itself to PILCO (TaskSetup::pilco: its angles, the "
+                        "inputs of the policy and the GP, the cost); choose another algorithm");
+    if (with_prior_ && !setup.prior)
+      throw ConfigError(head + "task '" + s.at("task") + "' has no simulator prior; use pilco");
+    const algo::PilcoOptions o = pilco_options(s, with_prior_);
+    if (o.cost_width == 0.0 && !(setup.pilco->reward_width > 0))
+      throw ConfigError("config key 'pilco.cost_width' is empty but task '" + s.at("task") +
+                        "' gives no reward width: set it");
+    try {
+      return std::make_unique<algo::Pilco>(o, *setup.pilco);
+    } catch (const InvalidArgument& e) {
+      throw ConfigError(head + e.what());
+    }
+  }
+
+ private:
+  bool with_prior_;
+};
+
 }  // namespace
 
 void register_builtin_algorithms(Registry& registry) {
   registry.add_algorithm(std::make_unique<BlackDropsPlugin>());
   registry.add_algorithm(std::make_unique<DirectPlugin>());
   registry.add_algorithm(make_ite_plugin());
+  registry.add_algorithm(std::make_unique<PilcoPlugin>(false));
+  registry.add_algorithm(std::make_unique<PilcoPlugin>(true));
 }
 
 std::string Experiment::default_run_name(const std::string& stamp) const {

@@ -93,11 +93,14 @@ std::string variant_long_name(const std::string& m) {
   if (m == "gp") return "Black-DROPS";
   if (m == "direct") return "CMA-ES on the real system (no model)";
   if (m == "ite") return "IT&E";
+  if (m == "pilco") return "PILCO";
+  if (m == "pilco_prior") return "PILCO with priors";
   return m;
 }
 
 int variant_rank(const std::string& m) {
-  static const std::vector<std::string> order = {"gp_mi", "gp_prior", "mi", "gp", "ite"};
+  static const std::vector<std::string> order = {"gp_mi", "gp_prior", "mi", "gp", "ite",
+                                                  "pilco_prior", "pilco"};
   const auto it = std::find(order.begin(), order.end(), m);
   return it == order.end() ? 100 : static_cast<int>(it - order.begin());
 }

@@ -53,6 +53,14 @@ VectorXd to_eigen(const nlohmann::json& j, const std::string& what) {
 
 nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
+/// An algorithm's details as a JSON object (non-finite numbers as null).
+nlohmann::json details_json(const algo::Details& d) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : d.numbers) j[k] = number(v);
+  for (const auto& [k, v] : d.texts) j[k] = v;
+  return j;
+}
+
 std::string read_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read " + path.string());
@@ -359,14 +367,19 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   }
   for (std::size_t i = 0; i < metrics.size() && i < setup.metric_names.size(); ++i)
     e[setup.metric_names[i]] = number(metrics[i]);
-  if (!rec.details.empty()) {
-    nlohmann::json details = nlohmann::json::object();
-    for (const auto& [k, v] : rec.details) details[k] = number(v);
-    e["details"] = details;
-  }
+  if (!rec.details.empty()) e["details"] = details_json(rec.details);
   summary_["episodes"].push_back(e);
   if (rec.solved && !summary_.contains("first_solved_episode"))
     summary_["first_solved_episode"] = rec.episode;
+  write_summary("running");
+}
+
+void RunDirectory::record_phase(const algo::PhaseRecord& phase) {
+  nlohmann::json p = details_json(phase.summary);
+  nlohmann::json eps = nlohmann::json::array();
+  for (const auto& d : phase.episodes) eps.push_back(details_json(d));
+  p["episodes"] = eps;
+  summary_["phases"][phase.name] = p;
   write_summary("running");
 }
 
@@ -469,7 +482,8 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
     algo::RunState st;
     st.episodes_done = j.at("episodes_done").get<int>();
     st.best_theta = to_eigen(j.at("best_theta"), "best_theta");
-    // null: no episode yet (a state saved during an algorithm's preparation, e.g. IT&E's archive)
+    // null: no episode yet (-inf, which JSON cannot hold: a state saved before the first episode,
+    // during IT&E's archive or after PILCO with priors' simulation phase)
     st.best_return = j.at("best_return").is_null() ? -std::numeric_limits<double>::infinity()
                                                    : j.at("best_return").get<double>();
     st.first_solved_episode = j.at("first_solved_episode").get<int>();
@@ -488,10 +502,11 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
       st.data[i].u = to_eigen(d["u"][i], "data.u");
       st.data[i].dx = to_eigen(d["dx"][i], "data.dx");
     }
-    // 0 only for a state saved before the first episode, with an archive (IT&E; reopen checks).
+    // 0 only for a state saved before the first real episode: with an archive (IT&E; reopen
+    // checks it) or after a phase (PILCO with priors' simulation phase).
     if (st.episodes_done < 0)
       throw Error(cp.string() + ": episodes_done = " + std::to_string(st.episodes_done) +
-                  " (a checkpoint is written after an episode, or with IT&E's archive)");
+                  " (a checkpoint is written after an episode, a phase, or with IT&E's archive)");
     return st;
   } catch (const nlohmann::json::exception& e) {
     throw Error(cp.string() + " is malformed: " + e.what());
@@ -744,7 +759,9 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     state->archive.cursor = file.info.cursor;
     rd->written_archive_ = file.archive;
     rd->written_complete_ = file.info.complete;
-  } else if (k == 0) {
+  } else if (k == 0 && !(summary.contains("phases") && !summary["phases"].empty())) {
+    // Before the first real episode a checkpoint holds an archive (IT&E) or follows a phase
+    // (PILCO with priors' simulation, recorded in summary.json "phases").
     throw RunDirectoryDamaged(cp_path.string() + " covers no episode and " +
                               (dir / "archive.csv").string() +
                               " is missing: restore the file or start the run again");
@@ -806,11 +823,7 @@ void RunDirectory::finish(const algo::RunSummary& s, const std::string& status,
                           {"start_return", number(-s.search.start_value)},
                           {"best_theta", to_std(s.search.best_x)}};
   }
-  if (!s.details.empty()) {
-    nlohmann::json details = nlohmann::json::object();
-    for (const auto& [k, v] : s.details) details[k] = number(v);
-    summary_["details"] = details;
-  }
+  if (!s.details.empty()) summary_["details"] = details_json(s.details);
   if (!error.empty()) summary_["error"] = error;
   write_summary(status);
 }

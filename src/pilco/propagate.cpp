@@ -370,6 +370,9 @@ PredictedTrajectory ExpectedCost::predict(const VectorXd& theta) const {
   for (int t = 1; t <= horizon_; ++t) {
     weight *= discount_;
     const StepMoments s = propagate(config_, dynamics_, policy, tr.means.back(), tr.covs.back());
+    // The joint is [x (D), trig (2 |angles|), u~ (U), u (U), Delta (D)].
+    const Index U = config_.control_dim();
+    tr.action_means.push_back(s.joint_mean.segment(config_.augmented_dim() + U, U));
     tr.means.push_back(s.mean);
     tr.covs.push_back(s.cov);
     const CostMoments c = state_cost(config_, cost_, s.mean, s.cov, false);

@@ -276,6 +276,91 @@ SeModel gp_model_with_prior_mean(const std::vector<gp::Gp>& prior,
   return m;
 }
 
+namespace {
+
+// sigma_f^2 exp(-1/2 |(a_i - b_j) / l|^2) for the rows of A (na x D) and B (nb x D).
+MatrixXd se_cross(const MatrixXd& A, const MatrixXd& B, const VectorXd& length_scales,
+                  double signal_variance) {
+  const VectorXd il = length_scales.cwiseInverse();
+  const MatrixXd As = A * il.asDiagonal(), Bs = B * il.asDiagonal();
+  MatrixXd D2 = (-2.0 * As * Bs.transpose()).colwise() + As.rowwise().squaredNorm();
+  D2.rowwise() += Bs.rowwise().squaredNorm().transpose();
+  return signal_variance * (-0.5 * D2.array().max(0.0)).exp().matrix();
+}
+
+}  // namespace
+
+SeBlock fitc_block(const MatrixXd& X, const VectorXd& y, const MatrixXd& Z,
+                   const VectorXd& length_scales, double signal_variance, double noise_variance,
+                   double jitter) {
+  const Index D = Z.cols(), N = X.rows(), M = Z.rows();
+  if (M < 1) throw InvalidArgument("fitc_block: Z: expected at least 1 inducing input, got 0");
+  check_size("fitc_block: X columns (input dimension of Z)", D, X.cols());
+  check_size("fitc_block: y (rows of X)", N, y.size());
+  check_size("fitc_block: length_scales (input dimension)", D, length_scales.size());
+  if (!X.allFinite() || !y.allFinite() || !Z.allFinite())
+    throw InvalidArgument("fitc_block: X, y and Z: expected finite values");
+  if (!(length_scales.array() > 0).all() || !length_scales.allFinite())
+    throw InvalidArgument("fitc_block: length_scales: expected finite values > 0");
+  if (!(signal_variance > 0) || !std::isfinite(signal_variance) || !(noise_variance > 0) ||
+      !std::isfinite(noise_variance) || !(jitter >= 0))
+    throw InvalidArgument(
+        "fitc_block: expected finite signal and noise variances > 0 and a jitter >= 0, got " +
+        std::to_string(signal_variance) + ", " + std::to_string(noise_variance) + ", " +
+        std::to_string(jitter));
+  MatrixXd Kmm = se_cross(Z, Z, length_scales, signal_variance);
+  Kmm.diagonal().setConstant(signal_variance);
+  Eigen::LLT<MatrixXd> L;
+  double j = jitter;
+  for (;;) {
+    MatrixXd K = Kmm;
+    K.diagonal().array() += j * signal_variance;
+    L.compute(K);
+    if (L.info() == Eigen::Success) break;
+    j = j > 0 ? 10 * j : 1e-10;
+    if (j > 1e-2)
+      throw NumericalError("fitc_block: K(Z, Z) is not positive definite even with a jitter of "
+                           "1e-2 sigma_f^2 (repeated inducing inputs?)");
+  }
+  // V = L^-1 Kmn; Q_ii = |V_:i|^2; Lambda = diag(sigma_f^2 - Q_ii) + sigma_n^2 (>= sigma_n^2).
+  MatrixXd V = se_cross(Z, X, length_scales, signal_variance);
+  L.matrixL().solveInPlace(V);
+  const VectorXd lam =
+      (signal_variance - V.colwise().squaredNorm().transpose().array()).max(0.0) + noise_variance;
+  const VectorXd isl = lam.array().rsqrt();
+  const MatrixXd Vl = V * isl.asDiagonal();
+  MatrixXd A = Vl * Vl.transpose();
+  A.diagonal().array() += 1.0;
+  Eigen::LLT<MatrixXd> LA(A);
+  if (LA.info() != Eigen::Success)
+    throw NumericalError("fitc_block: I + V Lambda^-1 V^T is not positive definite");
+  // w = Sigma_m Kmn Lambda^-1 y = L^-T A^-1 Vl (y ./ sqrt(lam)); Kmm^-1 - Sigma_m = L^-T (I - A^-1) L^-1.
+  VectorXd w = LA.solve(Vl * y.cwiseProduct(isl));
+  L.matrixU().solveInPlace(w);
+  MatrixXd W = MatrixXd::Identity(M, M) - LA.solve(MatrixXd::Identity(M, M));
+  L.matrixU().solveInPlace(W);                                  // L^-T (I - A^-1)
+  W.transposeInPlace();                                         // (I - A^-1) L^-1
+  L.matrixU().solveInPlace(W);                                  // L^-T (I - A^-1) L^-1
+  SeBlock b;
+  b.centres = Z;
+  b.weights = std::move(w);
+  b.length_scales = length_scales;
+  b.signal_variance = signal_variance;
+  b.gp_variance = true;
+  b.k_inverse = 0.5 * (W + W.transpose());
+  return b;
+}
+
+VectorXd block_values(const SeBlock& block, const MatrixXd& X) {
+  check_size("block_values: X columns (the block's input dimension)", block.centres.cols(),
+             X.cols());
+  check_size("block_values: weights (centres)", block.centres.rows(), block.weights.size());
+  check_size("block_values: length_scales (input dimension)", block.centres.cols(),
+             block.length_scales.size());
+  if (block.centres.rows() == 0) return VectorXd::Zero(X.rows());
+  return se_cross(X, block.centres, block.length_scales, block.signal_variance) * block.weights;
+}
+
 Moments se_moments(const SeModel& model, const VectorXd& mu, const MatrixXd& sigma,
                    bool derivatives) {
   return detail::se_moments_impl(model, mu, sigma, derivatives, nullptr);

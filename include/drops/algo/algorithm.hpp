@@ -36,6 +36,23 @@ struct Problem {
   void check() const;
 };
 
+/// Facts an algorithm records beyond the common fields of an episode or a phase, as named numbers
+/// and texts (summary.json "details"), e.g. PILCO's optimizer counts and the GP's size.
+struct Details {
+  std::map<std::string, double> numbers;
+  std::map<std::string, std::string> texts;
+  bool empty() const { return numbers.empty() && texts.empty(); }
+};
+
+/// A part of a run that is not a real episode and costs no interaction time, e.g. PILCO with
+/// priors' simulation phase (PILCO run on the simulator before the first real episode). Reported
+/// through Callbacks::on_phase once it ends; summary.json keeps it under "phases".<name>.
+struct PhaseRecord {
+  std::string name;               ///< e.g. "simulation"
+  Details summary;                ///< about the whole phase
+  std::vector<Details> episodes;  ///< one entry per episode of the phase, in order
+};
+
 /// Everything recorded about one real episode. Complete when the on_episode callback receives it.
 struct EpisodeRecord {
   int episode = 0;                  ///< 1-based
@@ -64,9 +81,9 @@ struct EpisodeRecord {
   double policy_seconds = 0;        ///< policy optimization time, s
   long evaluations = 0;             ///< policy evaluations that chose theta (model rollouts / rollouts per eval; 1 for a direct search)
   long nonfinite_model_steps = 0;   ///< rollout steps stopped by non-finite model predictions
-  /// Algorithm-specific values of this episode by name (e.g. IT&E's cell and the mean M-BOA
-  /// predicted for it); the run directory writes them in summary.json. May be empty.
-  std::map<std::string, double> details;
+  /// Algorithm-specific facts of this episode (e.g. IT&E's cell and the mean M-BOA predicted for
+  /// it, PILCO's optimizer counts); the run directory writes them in summary.json. May be empty.
+  Details details;
 };
 
 /// A MAP-Elites archive that an algorithm built, is building or was given (IT&E), with where its
@@ -80,7 +97,9 @@ struct ArchiveState {
   ite::MapElitesCursor cursor;
 };
 
-/// An algorithm between two episodes: everything the next episodes depend on. Every random stream
+/// An algorithm between two episodes: everything the next episodes depend on. episodes_done may be
+/// 0 for an algorithm with work before its first episode (PILCO with priors saves its simulation
+/// phase's results). Every random stream
 /// is derived from (seed, episode, ...), so a run continued from the state saved after episode k
 /// produces exactly the episodes k+1.. of an uninterrupted run (drops run --resume).
 struct RunState {
@@ -122,6 +141,8 @@ struct Callbacks {
   /// After on_episode, with the state needed to continue the run from there. Persist it to
   /// make the run resumable.
   std::function<void(const RunState&)> on_state;
+  /// When a phase that is not a real episode ends (PhaseRecord), before the next real episode.
+  std::function<void(const PhaseRecord&)> on_phase;
 };
 
 /// Result of Algorithm::run.
@@ -133,9 +154,9 @@ struct RunSummary {
   double seconds = 0;             ///< wall-clock time of this call, s
   /// The whole-run search of an algorithm that has one (the direct search); empty otherwise.
   opt::CmaesSummary search;
-  /// Algorithm-specific results by name (e.g. IT&E's archive coverage and trial count); the run
+  /// Algorithm-specific results (e.g. IT&E's archive coverage and trial count); the run
   /// directory writes them in summary.json. May be empty.
-  std::map<std::string, double> details;
+  Details details;
   /// One line: "12 episodes, best return 19.81, first solved at episode 4, 83.2 s".
   std::string BriefReport() const;
 };

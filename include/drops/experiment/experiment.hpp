@@ -9,6 +9,7 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/algo/direct_search.hpp"
 #include "drops/algo/ite.hpp"
+#include "drops/algo/pilco.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/registry.hpp"
 
@@ -47,6 +48,9 @@ algo::BlackDropsOptions black_drops_options(const Settings& settings);
 /// ConfigError naming the task when it has no behaviour descriptor, and naming the key for an
 /// invalid value or an archive file that cannot be read or does not fit the task.
 algo::IteOptions ite_options(const Settings& settings, const TaskSetup& setup);
+/// The options of PILCO (with_prior false) or PILCO with priors from settings (pilco.*, episodes,
+/// seed). Throws ConfigError when they are invalid (PilcoOptions::IsValid). Thread-safe.
+algo::PilcoOptions pilco_options(const Settings& settings, bool with_prior);
 
 /// The CMA-ES options of the optimizer.* keys. Thread-safe.
 opt::CmaesOptions cmaes_options(const Settings& settings);

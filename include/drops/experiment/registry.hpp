@@ -10,12 +10,14 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "drops/algo/algorithm.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/ite/behaviour.hpp"
+#include "drops/pilco/task_model.hpp"
 
 namespace drops::experiment {
 
@@ -85,6 +87,10 @@ struct TaskSetup {
   /// prior (e.g. a robot's damage): settings that differ only in them share an IT&E archive
   /// (ite.archive_cache). Empty: every task key is assumed to matter.
   std::vector<std::string> real_system_keys;
+  /// What PILCO needs beyond the task (angles, inputs of the policy and the GP in PILCO's
+  /// augmented space, the cost's target and distance, Sigma_0): tasks that PILCO can run on fill
+  /// it; without it, algorithm=pilco and pilco_prior are refused with a ConfigError.
+  std::optional<pilco::TaskModel> pilco;
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };
@@ -173,8 +179,9 @@ class Registry {
 };
 
 /// Registers the algorithms of drops::core: "black_drops" (Black-DROPS and its variants, by
-/// model.type; the default), "direct" (the direct search on the real system) and "ite" (IT&E:
-/// MAP-Elites on the prior, M-BOA on the real system; tasks with a behaviour descriptor).
+/// model.type; the default), "direct" (the direct search on the real system), "ite" (IT&E:
+/// MAP-Elites on the prior, M-BOA on the real system; tasks with a behaviour descriptor), "pilco"
+/// and "pilco_prior" (PILCO and PILCO with priors, on tasks with TaskSetup::pilco; keys pilco.*).
 void register_builtin_algorithms(Registry& registry);
 
 }  // namespace drops::experiment

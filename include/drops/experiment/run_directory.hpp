@@ -122,6 +122,10 @@ class RunDirectory {
   /// Writes every file of one finished episode (trajectories and policy only when
   /// rec.keep_trajectories), then appends its row and rewrites summary.json.
   void record(const algo::EpisodeRecord& rec);
+  /// Records a phase that is not a real episode (e.g. PILCO with priors' simulation phase) in
+  /// summary.json under "phases".<name> (its summary's numbers and texts, and "episodes": one
+  /// object per episode of the phase), replacing an earlier record of the same name.
+  void record_phase(const algo::PhaseRecord& phase);
   /// Writes checkpoint.json (atomically): doubles in the shortest form that reads back exactly,
   /// so a resumed run is bit-identical to an uninterrupted one. When the state holds an archive
   /// that was not written yet (another one, or now complete), writes it first as archive.csv
@@ -133,7 +137,7 @@ class RunDirectory {
   const std::filesystem::path& path() const { return dir_; }
   /// True when checkpoint.json exists: the run can be continued with `drops run --resume` (false
   /// until the first save_state() of a new run, which comes after the first finished episode or,
-  /// for IT&E, while its archive is being built).
+  /// for IT&E, while its archive is being built, for PILCO with priors after its simulation phase).
   bool has_checkpoint() const { return has_checkpoint_; }
   /// What reopen() removed or rewrote, one sentence each (empty for a new run).
   const std::vector<std::string>& repairs() const { return repairs_; }

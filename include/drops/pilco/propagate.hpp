@@ -91,6 +91,8 @@ struct PredictedTrajectory {
   std::vector<Eigen::MatrixXd> covs;   ///< H + 1 state covariances
   Eigen::VectorXd expected_costs;      ///< H: E[c(x_1)] .. E[c(x_H)] (undiscounted)
   Eigen::VectorXd cost_variances;      ///< H: Var[c(x_t)]
+  /// H: E[u_t] (dim U each), the squashed control's mean at the step from x_t to x_{t+1}.
+  std::vector<Eigen::VectorXd> action_means;
   double total = 0.0;                  ///< J = sum_t gamma^t E[c(x_t)]
 };
 

@@ -65,6 +65,28 @@ SeModel gp_model(const std::vector<gp::Gp>& gps);
 SeModel gp_model_with_prior_mean(const std::vector<gp::Gp>& prior,
                                  const std::vector<gp::Gp>& residual);
 
+/// The FITC sparse GP (Snelson & Ghahramani 2006, "fully independent training conditional"; PILCO's
+/// gp1 beyond 300 points, baselines.md §1a) of an SE-ARD GP on data (X, y) with inducing inputs Z,
+/// as a block with variance: with Kmm = K(Z, Z) + jitter sigma_f^2 I, Kmn = K(Z, X),
+/// Lambda = diag(k(x_i, x_i) - [Knm Kmm^-1 Kmn]_ii) + sigma_n^2 I and
+/// Sigma_m = (Kmm + Kmn Lambda^-1 Knm)^-1, the predictive mean is k(x, Z) w with
+/// w = Sigma_m Kmn Lambda^-1 y and the latent variance is sigma_f^2 - k(x, Z)^T (Kmm^-1 - Sigma_m)
+/// k(x, Z), so c = Z, weights = w, k_inverse = Kmm^-1 - Sigma_m (M x M). With Z = X and no jitter
+/// this is the full GP exactly. Centres are the M inducing inputs: moment matching costs O(M^2)
+/// instead of O(N^2). X: N x D, y: N, Z: M x D (M >= 1), length_scales: D (> 0), signal and noise
+/// variances > 0; jitter >= 0, relative to sigma_f^2 (PILCO's gp1 adds a ridge of 1e-6); a failed
+/// Cholesky of Kmm is retried with 10x the jitter up to 1e-2, then NumericalError. Cost
+/// O(N M^2 + M^3). Throws InvalidArgument on sizes or invalid values. Thread-safe (pure).
+SeBlock fitc_block(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Eigen::MatrixXd& Z,
+                   const Eigen::VectorXd& length_scales, double signal_variance,
+                   double noise_variance, double jitter = 1e-6);
+
+/// The deterministic part of a block at points X (N x D, one per row): f_B(x_i) =
+/// sum_j w_j alpha^2 exp(-1/2 (x_i - c_j)^T Lambda^-1 (x_i - c_j)) (dim N); e.g. the prior mean
+/// m(x) of PILCO with priors at the real data, to form the residual targets. Throws
+/// InvalidArgument on sizes. Cost O(N n D). Thread-safe (pure).
+Eigen::VectorXd block_values(const SeBlock& block, const Eigen::MatrixXd& X);
+
 /// Exact moments of f(x) (dim E) for x ~ N(mu, Sigma) (dim D): mean M, covariance S (latent
 /// function, no observation noise) and cross V = Sigma^-1 Cov[x, f] (D x E); with `derivatives`,
 /// also dM/dmu, dM/dSigma, dS/dmu, dS/dSigma, dV/dmu, dV/dSigma (conventions: Moments).

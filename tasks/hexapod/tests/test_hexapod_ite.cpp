@@ -135,7 +135,7 @@ TEST(HexapodIte, ATinyRunBuildsAnArchiveOnThePriorAndRunsOneRealTrial) {
   EXPECT_GT(archive.archive->size(), 5u);
   EXPECT_EQ(records[0].theta, archive.archive->best().theta);  // first trial: the best cell
   EXPECT_EQ(records[0].selected, "trial");
-  EXPECT_EQ(summary.details.at("trials"), 1.0);
+  EXPECT_EQ(summary.details.numbers.at("trials"), 1.0);
 }
 
 // The descriptor samples the 40 states of an episode (0.1 s apart); the reference sampled every

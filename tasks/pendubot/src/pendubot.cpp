@@ -134,6 +134,33 @@ bool TaskOptions::IsValid(std::string* why) const {
   return true;
 }
 
+pilco::TaskModel pilco_task_model(const TaskOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InvalidArgument("pendubot task: " + why);
+  pilco::TaskModel m;
+  m.config.state_dim = 4;
+  m.config.angles = {2, 3};
+  m.config.policy_inputs = {0, 1, 4, 5, 6, 7};
+  m.config.dynamics_inputs = {0, 1, 4, 5, 6, 7};
+  m.config.max_u = VectorXd::Constant(1, options.max_torque);
+  // x_aug = [dth1, dth2, th1, th2, sin th1, cos th1, sin th2, cos th2]; the tip is
+  // (-l1 sin th1 - l2 sin th2, l1 cos th1 + l2 cos th2) and the goal (0, l1 + l2).
+  m.cost_map = MatrixXd::Zero(2, 8);
+  m.cost_map(0, 4) = options.goal_l1;
+  m.cost_map(0, 6) = options.goal_l2;
+  m.cost_map(1, 5) = options.goal_l1;
+  m.cost_map(1, 7) = options.goal_l2;
+  m.cost_target = VectorXd::Zero(8);
+  m.cost_target[5] = m.cost_target[7] = 1.0;
+  m.reward_width = options.reward_sigma;
+  VectorXd s0(4);
+  s0 << 0.1, 0.1, 0.01, 0.01;
+  m.initial_cov = s0.array().square().matrix().asDiagonal();
+  m.policy_length_scales = VectorXd(6);
+  m.policy_length_scales << 1, 1, 0.7, 0.7, 0.7, 0.7;
+  return m;
+}
+
 SwingUpTask::SwingUpTask(const TaskOptions& options) : options_(options) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("pendubot task: " + why);

@@ -160,6 +160,7 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     s.prior = std::make_shared<PendubotPrior>(to);
     s.phi_actual.assign(actual_phi.data(), actual_phi.data() + actual_phi.size());
     s.prior_label = prior_label(st);
+    s.pilco = pilco_task_model(to);
     s.state_names = {"dtheta1", "dtheta2", "theta1", "theta2"};
     s.action_names = {"u"};
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "drops/model/mean_function.hpp"
+#include "drops/pilco/task_model.hpp"
 #include "drops/rollout/task.hpp"
 
 namespace drops::pendubot {
@@ -90,6 +91,19 @@ class SwingUpTask final : public rollout::Task {
   TaskOptions options_;
   int horizon_;
 };
+
+/// The swing-up as PILCO sees it (baselines.md §1a, pilco-matlab's pendubot scenario): x =
+/// [dtheta1, dtheta2, theta1, theta2], angles {2, 3}, x_aug = [x, sin theta1, cos theta1,
+/// sin theta2, cos theta2], policy and GP inputs [dtheta1, dtheta2, sin/cos theta1, sin/cos
+/// theta2] (indices {0, 1, 4, 5, 6, 7}), max_u = max_torque; the cost's distance |C (x_aug - z)|
+/// with C = [l1 0 l2 0; 0 l1 0 l2] on the sin/cos entries and z = (0, 1, 0, 1) there is the tip's
+/// distance to the goal with the reward's lengths goal_l1, goal_l2, so the reward
+/// exp(-d^2 / (2 sigma_c^2)) is 1 - c_{sigma_c}: reward_width = reward_sigma. Sigma_0 =
+/// diag(0.1, 0.1, 0.01, 0.01)^2 (pilco-matlab's S0: the real start [0, 0, pi, pi] is deterministic;
+/// planning from a slightly wider Gaussian also makes the policy work near it); policy length
+/// scales [1, 1, 0.7, 0.7, 0.7, 0.7] (settings_pendubot.m). Throws InvalidArgument when options
+/// are invalid.
+pilco::TaskModel pilco_task_model(const TaskOptions& options);
 
 /// The "real" pendubot: deterministic dynamics with the given parameters. Thread-safe.
 class PendubotSystem final : public rollout::System {
