@@ -22,9 +22,17 @@
 
 #include "../fixtures.hpp"
 #include "campaign.hpp"
+#include "cli_test_util.hpp"
 #include "drops/core/errors.hpp"
 
 namespace fs = std::filesystem;
+using drops::cli_test::episodes_without_timing;
+using drops::cli_test::fresh_dir;
+using drops::cli_test::read_file;
+using drops::cli_test::run_drops;
+using drops::cli_test::shell;
+using drops::cli_test::Stdout;
+using drops::cli_test::write_file;
 extern char** environ;
 
 namespace {
@@ -32,38 +40,6 @@ namespace {
 const std::string kTiny = std::string(DROPS_SOURCE_DIR) + "/configs/campaign-tiny.yaml";
 const std::set<std::string> kTinyRuns = {"gp_mi-tunable-seed1", "gp_mi-tunable-seed2",
                                          "mi-tunable-seed1", "mi-tunable-seed2"};
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("drops-campaign-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write_file(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
-
-/// Runs a shell command line; returns its exit code and its stderr in *err.
-int shell(const std::string& cmd, std::string* err = nullptr) {
-  const fs::path e =
-      fs::temp_directory_path() / ("drops-campaign-stderr-" + std::to_string(getpid()));
-  const int rc = std::system((cmd + " 2> " + e.string()).c_str());
-  if (err) *err = read_file(e);
-  fs::remove(e);
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : 128 + WTERMSIG(rc);
-}
-
-/// `drops args` with stdout discarded (progress and errors go to stderr).
-int run_drops(const std::string& args, std::string* err = nullptr) {
-  return shell(std::string(DROPS_BINARY) + " " + args + " > /dev/null", err);
-}
 
 /// Removes a test's directory unless the test failed (then it is kept for inspection).
 void clean_up(const fs::path& d) {
@@ -113,26 +89,6 @@ std::set<std::string> run_names(const fs::path& campaign) {
   for (const auto& e : fs::directory_iterator(campaign / "runs"))
     if (e.is_directory()) names.insert(e.path().filename().string());
   return names;
-}
-
-/// episodes.csv without the wall-time columns (model_learning_s, policy_optimization_s).
-std::string episodes_without_timing(const fs::path& run_dir) {
-  std::ifstream in(run_dir / "episodes.csv");
-  std::string line, out;
-  std::vector<bool> keep;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
-    if (keep.empty())
-      for (const auto& h : cells)
-        keep.push_back(h != "model_learning_s" && h != "policy_optimization_s");
-    for (std::size_t i = 0; i < cells.size(); ++i)
-      if (i >= keep.size() || keep[i]) out += cells[i] + ",";
-    out += "\n";
-  }
-  return out;
 }
 
 /// True when some process holds the flock of a run directory.
@@ -201,7 +157,7 @@ TEST(Campaign, SeedRangeEqualsTheList) {
 // ---- end to end ----
 
 TEST(Campaign, WrongKeysFailWithExitCode2NamingTheKeyAndWriteNothing) {
-  const fs::path d = fresh_dir("errors");
+  const fs::path d = fresh_dir("campaign", "errors");
   const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
       {"grid: {model.typ: [gp_mi, mi]}\n", {"model.typ", "did you mean 'model.type'"}},
       {"grid: {seed: [1]}\nsettings: {episode: 3}\n", {"episode", "did you mean 'episodes'"}},
@@ -215,7 +171,9 @@ TEST(Campaign, WrongKeysFailWithExitCode2NamingTheKeyAndWriteNothing) {
     const fs::path file = d / ("bad" + std::to_string(i) + ".yaml");
     write_file(file, cases[i].first);
     std::string err;
-    EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + (d / "out").string(), &err), 2)
+    EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + (d / "out").string(), &err,
+                        Stdout::kDiscard),
+              2)
         << cases[i].first << err;
     for (const auto& needle : cases[i].second)
       EXPECT_NE(err.find(needle), std::string::npos) << "'" << needle << "' not in: " << err;
@@ -225,9 +183,12 @@ TEST(Campaign, WrongKeysFailWithExitCode2NamingTheKeyAndWriteNothing) {
 }
 
 TEST(Campaign, TinyCampaignCompletesLocallyAndASecondInvocationRunsNothing) {
-  const fs::path d = fresh_dir("local");
+  const fs::path d = fresh_dir("campaign", "local");
   std::string err;
-  ASSERT_EQ(run_drops("campaign " + kTiny + " --output " + d.string() + " -j 2", &err), 0) << err;
+  ASSERT_EQ(
+      run_drops("campaign " + kTiny + " --output " + d.string() + " -j 2", &err, Stdout::kDiscard),
+      0)
+      << err;
   const fs::path c = d / "tiny";
   EXPECT_EQ(run_names(c), kTinyRuns);
   for (const auto& r : kTinyRuns) {
@@ -241,7 +202,9 @@ TEST(Campaign, TinyCampaignCompletesLocallyAndASecondInvocationRunsNothing) {
   EXPECT_EQ(count_events(events, "start"), 4);
   EXPECT_EQ(count_events(events, "finish"), 4);
 
-  ASSERT_EQ(run_drops("campaign " + kTiny + " --output " + d.string() + " -q", &err), 0) << err;
+  ASSERT_EQ(
+      run_drops("campaign " + kTiny + " --output " + d.string() + " -q", &err, Stdout::kDiscard), 0)
+      << err;
   events = read_log(c);
   EXPECT_EQ(count_events(events, "start"), 4);
   EXPECT_EQ(count_events(events, "resume"), 0);
@@ -250,31 +213,35 @@ TEST(Campaign, TinyCampaignCompletesLocallyAndASecondInvocationRunsNothing) {
 }
 
 TEST(Campaign, ADifferentCampaignFileIsRefusedButOtherJobsAndThreadsAreAccepted) {
-  const fs::path d = fresh_dir("changed");
+  const fs::path d = fresh_dir("campaign", "changed");
   const fs::path file = d / "tiny.yaml";
   write_file(file, read_file(kTiny));
   std::string err;
-  ASSERT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -q", &err), 0)
+  ASSERT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -q", &err,
+                      Stdout::kDiscard),
+            0)
       << err;
 
   write_file(file, read_file(kTiny) + "jobs: 1\n");
   EXPECT_EQ(
       run_drops("campaign " + file.string() + " --output " + d.string() + " --threads 2 --dry-run",
-                &err),
+                &err, Stdout::kDiscard),
       0)
       << err;
 
   std::string text = read_file(kTiny);
   text.replace(text.find("episodes: 2"), 11, "episodes: 3");
   write_file(file, text);
-  EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -q", &err), 2);
+  EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -q", &err,
+                      Stdout::kDiscard),
+            2);
   EXPECT_NE(err.find("episodes"), std::string::npos) << err;
   EXPECT_NE(err.find("different campaign"), std::string::npos) << err;
   clean_up(d);
 }
 
 TEST(Campaign, AdoptsARunStartedByPlainDropsRunAndRefusesOneWithOtherSettings) {
-  const fs::path d = fresh_dir("adopt");
+  const fs::path d = fresh_dir("campaign", "adopt");
   const std::string budget =
       " task=pendubot episodes=2 optimizer.max_evaluations=300 optimizer.restarts=0 "
       "model.gp_mi.max_evaluations=100 model.mi.max_evaluations=100 rollouts.predicted=2 "
@@ -282,10 +249,12 @@ TEST(Campaign, AdoptsARunStartedByPlainDropsRunAndRefusesOneWithOtherSettings) {
   std::string err;
   ASSERT_EQ(run_drops("run model.type=gp_mi prior.preset=tunable seed=1" + budget + " --output " +
                           (d / "tiny" / "runs").string() + " --name gp_mi-tunable-seed1 -q",
-                      &err),
+                      &err, Stdout::kDiscard),
             0)
       << err;
-  ASSERT_EQ(run_drops("campaign " + kTiny + " --output " + d.string() + " -j 2 -q", &err), 0)
+  ASSERT_EQ(run_drops("campaign " + kTiny + " --output " + d.string() + " -j 2 -q", &err,
+                      Stdout::kDiscard),
+            0)
       << err;
   const auto events = read_log(d / "tiny");
   EXPECT_EQ(count_events(events, "start"), 3);
@@ -293,14 +262,16 @@ TEST(Campaign, AdoptsARunStartedByPlainDropsRunAndRefusesOneWithOtherSettings) {
     if (e.value("run", "") == "gp_mi-tunable-seed1") EXPECT_EQ(e.value("event", ""), "skip");
 
   // A run directory made with other settings: error naming the run and the key, nothing started.
-  const fs::path d2 = fresh_dir("adopt-mismatch");
+  const fs::path d2 = fresh_dir("campaign", "adopt-mismatch");
   ASSERT_EQ(
       run_drops("run model.type=mi prior.preset=tunable seed=2" + budget + " episodes=3 --output " +
                     (d2 / "tiny" / "runs").string() + " --name mi-tunable-seed2 -q",
-                &err),
+                &err, Stdout::kDiscard),
       0)
       << err;
-  EXPECT_EQ(run_drops("campaign " + kTiny + " --output " + d2.string() + " -q", &err), 2);
+  EXPECT_EQ(
+      run_drops("campaign " + kTiny + " --output " + d2.string() + " -q", &err, Stdout::kDiscard),
+      2);
   EXPECT_NE(err.find("mi-tunable-seed2"), std::string::npos) << err;
   EXPECT_NE(err.find("'episodes'"), std::string::npos) << err;
   EXPECT_EQ(run_names(d2 / "tiny"), std::set<std::string>{"mi-tunable-seed2"});
@@ -312,10 +283,11 @@ TEST(Campaign, MpiCampaignGivesTheSameRunsAndEpisodesAsLocal) {
   if (!have_mpirun()) GTEST_SKIP() << "mpirun is not installed (scripts/install-deps)";
   ASSERT_TRUE(drops::app::mpi_built())
       << "mpirun is installed but drops was built without MPI (cmake -DDROPS_WITH_MPI=ON)";
-  const fs::path d = fresh_dir("mpi");
+  const fs::path d = fresh_dir("campaign", "mpi");
   std::string err;
-  ASSERT_EQ(
-      run_drops("campaign " + kTiny + " --output " + (d / "local").string() + " -j 2 -q", &err), 0)
+  ASSERT_EQ(run_drops("campaign " + kTiny + " --output " + (d / "local").string() + " -j 2 -q",
+                      &err, Stdout::kDiscard),
+            0)
       << err;
   ASSERT_EQ(shell("mpirun --allow-run-as-root --oversubscribe -np 2 " + std::string(DROPS_BINARY) +
                       " campaign " + kTiny + " --output " + (d / "mpi").string() +
@@ -335,8 +307,10 @@ TEST(Campaign, MpiCampaignGivesTheSameRunsAndEpisodesAsLocal) {
     if (e.value("event", "") == "start") EXPECT_EQ(e.value("worker", ""), "mpi:1");
 
   if (have_report()) {
-    ASSERT_EQ(run_drops("report " + local.string() + " --no-figures", &err), 0) << err;
-    ASSERT_EQ(run_drops("report " + mpi.string() + " --no-figures", &err), 0) << err;
+    ASSERT_EQ(run_drops("report " + local.string() + " --no-figures", &err, Stdout::kDiscard), 0)
+        << err;
+    ASSERT_EQ(run_drops("report " + mpi.string() + " --no-figures", &err, Stdout::kDiscard), 0)
+        << err;
     for (const char* f : {"summary.csv", "returns.csv"})
       EXPECT_EQ(read_file(mpi / "report" / f), read_file(local / "report" / f)) << f;
   }
@@ -354,7 +328,7 @@ TEST(Campaign, MpiCampaignGivesTheSameRunsAndEpisodesAsLocal) {
 // Interrupt (SIGINT) after the first run, kill (SIGKILL) after the next, then finish: every run
 // completes and no run that had finished is started or resumed again.
 TEST(Campaign, InterruptedAndKilledCampaignsResumeWithoutRepeatingFinishedRuns) {
-  const fs::path d = fresh_dir("kill");
+  const fs::path d = fresh_dir("campaign", "kill");
   const fs::path file = d / "kill.yaml";
   write_file(file,
              "name: kill\n"
@@ -414,7 +388,9 @@ TEST(Campaign, InterruptedAndKilledCampaignsResumeWithoutRepeatingFinishedRuns) 
       resumable.insert(r);
 
   std::string err;
-  ASSERT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -j 1", &err), 0)
+  ASSERT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -j 1", &err,
+                      Stdout::kDiscard),
+            0)
       << err;
   EXPECT_EQ(run_names(c).size(), 4u);
   for (const auto& r : run_names(c)) {

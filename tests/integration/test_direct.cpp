@@ -4,50 +4,27 @@
 // result does not depend on the thread count, and bad input is refused.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
-
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-#include <sys/wait.h>
-#include <unistd.h>
 #include <vector>
 
 #include "../fixtures.hpp"
+#include "cli_test_util.hpp"
 #include "drops/core/rng.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/rollout/rollout.hpp"
 
 namespace fs = std::filesystem;
+using drops::cli_test::fresh_dir;
+using drops::cli_test::read_json;
+using drops::cli_test::run_drops;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("drops-direct-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-int run(const std::string& args, std::string* stderr_text = nullptr) {
-  const std::string err =
-      (fs::temp_directory_path() / ("drops-direct-stderr-" + std::to_string(getpid()))).string();
-  const int rc = std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err).c_str());
-  std::ifstream in(err);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  if (stderr_text) *stderr_text = ss.str();
-  return WEXITSTATUS(rc);
-}
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
 
 /// Rows of a CSV file with a header: the named column as numbers (empty cells skipped).
 std::vector<double> column(const fs::path& p, const std::string& name) {
@@ -77,16 +54,16 @@ std::string fmt_double(double x) {
 }  // namespace
 
 TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheThreadCount) {
-  const fs::path out = fresh_dir("pendubot");
+  const fs::path out = fresh_dir("direct", "pendubot");
   std::string err;
-  ASSERT_EQ(run("direct --evaluations 600 --seed 3 --threads 1 --output " + out.string() +
-                    " --name t1 -q",
-                &err),
+  ASSERT_EQ(run_drops("direct --evaluations 600 --seed 3 --threads 1 --output " + out.string() +
+                          " --name t1 -q",
+                      &err),
             0)
       << err;
-  ASSERT_EQ(run("direct --evaluations 600 --seed 3 --threads 2 --output " + out.string() +
-                    " --name t2 -q",
-                &err),
+  ASSERT_EQ(run_drops("direct --evaluations 600 --seed 3 --threads 2 --output " + out.string() +
+                          " --name t2 -q",
+                      &err),
             0)
       << err;
   const auto s1 = read_json(out / "t1" / "summary.json");
@@ -140,9 +117,9 @@ TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheT
     std::ofstream f(out / "start.csv");
     for (const auto& t : s1["search"]["best_theta"]) f << fmt_double(t.get<double>()) << "\n";
   }
-  ASSERT_EQ(run("direct --evaluations 30 --seed 4 --start " + (out / "start.csv").string() +
-                    " --output " + out.string() + " --name s -q",
-                &err),
+  ASSERT_EQ(run_drops("direct --evaluations 30 --seed 4 --start " + (out / "start.csv").string() +
+                          " --output " + out.string() + " --name s -q",
+                      &err),
             0)
       << err;
   const auto s3 = read_json(out / "s" / "summary.json");
@@ -156,23 +133,24 @@ TEST(Direct, PendubotSearchRecordsItsBestEpisodeBeatsTheZeroPolicyAndIgnoresTheT
 }
 
 TEST(Direct, RefusesABadConfigAndAnExistingResultDirectory) {
-  const fs::path out = fresh_dir("bad");
+  const fs::path out = fresh_dir("direct", "bad");
   std::string err;
-  EXPECT_EQ(run("direct optimizer.max_evalutions=10 --output " + out.string(), &err), 2);
+  EXPECT_EQ(run_drops("direct optimizer.max_evalutions=10 --output " + out.string(), &err), 2);
   EXPECT_NE(err.find("max_evalutions"), std::string::npos) << err;
-  ASSERT_EQ(run("direct --evaluations 20 --output " + out.string() + " --name a -q", &err), 0)
+  ASSERT_EQ(run_drops("direct --evaluations 20 --output " + out.string() + " --name a -q", &err), 0)
       << err;
   const std::string before = read_json(out / "a" / "summary.json").dump();
-  EXPECT_EQ(run("direct --evaluations 20 --output " + out.string() + " --name a -q", &err), 1);
+  EXPECT_EQ(run_drops("direct --evaluations 20 --output " + out.string() + " --name a -q", &err),
+            1);
   EXPECT_NE(err.find("already holds"), std::string::npos) << err;
   EXPECT_EQ(read_json(out / "a" / "summary.json").dump(), before);  // nothing overwritten
   {
     std::ofstream f(out / "short.csv");
     f << "0.1\n0.2\n";
   }
-  EXPECT_EQ(run("direct --start " + (out / "short.csv").string() + " --output " + out.string() +
-                    " --name b -q",
-                &err),
+  EXPECT_EQ(run_drops("direct --start " + (out / "short.csv").string() + " --output " +
+                          out.string() + " --name b -q",
+                      &err),
             2);
   EXPECT_NE(err.find("holds 2 values; the policy has 81"), std::string::npos) << err;
   EXPECT_NE(err.find("direct.start"), std::string::npos) << err;

@@ -1,24 +1,24 @@
 // End-to-end: the `drops` binary learns the pendubot swing-up (slow; label "slow").
 #include <gtest/gtest.h>
-
-#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-#include <sys/wait.h>
 #include <thread>
 #include <vector>
-#include <unistd.h>
 
+#include "cli_test_util.hpp"
 #include "drops/experiment/campaign.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/registry.hpp"
@@ -28,30 +28,13 @@
 #endif
 
 namespace fs = std::filesystem;
+using drops::cli_test::fresh_dir;
+using drops::cli_test::read_file;
+using drops::cli_test::read_json;
+using drops::cli_test::run_drops;
+using drops::cli_test::spawn_drops;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("drops-e2e-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-int run(const std::string& args, std::string* stderr_text = nullptr) {
-  const std::string err = (fs::temp_directory_path() / ("drops-e2e-stderr-" + std::to_string(getpid()))).string();
-  const int rc = std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err).c_str());
-  std::ifstream in(err);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  if (stderr_text) *stderr_text = ss.str();
-  return WEXITSTATUS(rc);
-}
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
 
 int count_lines(const fs::path& p) {
   std::ifstream in(p);
@@ -66,12 +49,12 @@ int count_lines(const fs::path& p) {
 // The learning threshold: gp_mi with the tunable-useful prior solves within 8 episodes,
 // with a fixed seed and the default budget.
 TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
-  const fs::path out = fresh_dir("gpmi");
+  const fs::path out = fresh_dir("e2e", "gpmi");
   std::string err;
-  const int rc = run("run " + std::string(DROPS_SOURCE_DIR) +
-                         "/configs/pendubot-gp_mi.yaml episodes=8 seed=1 --output " +
-                         out.string() + " --name run -q",
-                     &err);
+  const int rc = run_drops("run " + std::string(DROPS_SOURCE_DIR) +
+                               "/configs/pendubot-gp_mi.yaml episodes=8 seed=1 --output " +
+                               out.string() + " --name run -q",
+                           &err);
   ASSERT_EQ(rc, 0) << err;
   const auto summary = read_json(out / "run" / "summary.json");
   EXPECT_EQ(summary["status"], "complete");
@@ -120,7 +103,7 @@ TEST(EndToEnd, GpMiWithTunableUsefulPriorSolvesThePendubotWithinEightEpisodes) {
 //   every run's experiment, and the first run of its grid runs as `drops run` from the
 //   configuration the campaign would give it.
 TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
-  const fs::path out = fresh_dir("configs");
+  const fs::path out = fresh_dir("e2e", "configs");
   drops::experiment::Registry registry;
   drops::experiment::register_builtin_algorithms(registry);
   drops::pendubot::register_task(registry);
@@ -147,9 +130,9 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
       ++campaigns;
       std::string err;
       const fs::path listing = out / (name + ".dry-run");
-      EXPECT_EQ(run("campaign " + file.string() + " --dry-run --output " + out.string() + " > " +
-                        listing.string(),
-                    &err),
+      EXPECT_EQ(run_drops("campaign " + file.string() + " --dry-run --output " + out.string() +
+                              " > " + listing.string(),
+                          &err),
                 0)
           << err;
       std::ifstream l(listing);
@@ -174,9 +157,9 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
       ++experiments;
     }
     std::string err;
-    const int rc = run("run " + config.string() + tiny + extra + " --output " + out.string() +
-                           " --name " + name,
-                       &err);
+    const int rc = run_drops(
+        "run " + config.string() + tiny + extra + " --output " + out.string() + " --name " + name,
+        &err);
     EXPECT_EQ(rc, 0) << err;
     EXPECT_NE(err.find("episode  2/2"), std::string::npos) << err;
     EXPECT_NE(err.find("done: 2 episodes"), std::string::npos) << err;
@@ -187,20 +170,20 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
 }
 
 TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
-  const fs::path out = fresh_dir("bad");
+  const fs::path out = fresh_dir("e2e", "bad");
   std::string err;
-  EXPECT_EQ(run("run model.tpye=gp --output " + out.string(), &err), 2);
+  EXPECT_EQ(run_drops("run model.tpye=gp --output " + out.string(), &err), 2);
   EXPECT_NE(err.find("did you mean 'model.type'"), std::string::npos) << err;
-  EXPECT_EQ(run("run /nonexistent.yaml --output " + out.string(), &err), 2);
+  EXPECT_EQ(run_drops("run /nonexistent.yaml --output " + out.string(), &err), 2);
   EXPECT_NE(err.find("cannot read config file"), std::string::npos) << err;
   // What only the task can check (the prior's starting l2 = 0.4 outside the bounds) names the file.
   const fs::path file = out.parent_path() / ("drops-e2e-bad-" + std::to_string(getpid()) + ".yaml");
   std::ofstream(file) << "prior:\n  bounds:\n    l2: [0.5, 1.0]\n";
-  EXPECT_EQ(run("run " + file.string() + " --output " + out.string(), &err), 2);
+  EXPECT_EQ(run_drops("run " + file.string() + " --output " + out.string(), &err), 2);
   EXPECT_NE(err.find(file.string() + ": config key 'prior.bounds.l2'"), std::string::npos) << err;
   fs::remove(file);
   // A number YAML cannot read: the key, not yaml-cpp's bare "bad conversion".
-  EXPECT_EQ(run("run 'prior.bounds.m2=[0x1, 2]' --output " + out.string(), &err), 2);
+  EXPECT_EQ(run_drops("run 'prior.bounds.m2=[0x1, 2]' --output " + out.string(), &err), 2);
   EXPECT_NE(err.find("config key 'prior.bounds.m2'"), std::string::npos) << err;
   EXPECT_TRUE(fs::is_empty(out));
   fs::remove_all(out);
@@ -208,23 +191,9 @@ TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
 
 namespace {
 
-/// Starts `drops run <args> --output out --name run -q` in the background.
+/// Starts `drops run <args> --output out --name run` in the background, its stderr to `err`.
 pid_t spawn_run(const std::string& args, const fs::path& out, const fs::path& err) {
-  const std::string cmd = std::string(DROPS_BINARY) + " run " + args + " --output " +
-                          out.string() + " --name run";
-  const pid_t pid = fork();
-  if (pid == 0) {
-    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>" + err.string()).c_str(), nullptr);
-    _exit(127);
-  }
-  return pid;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return spawn_drops("run " + args + " --output " + out.string() + " --name run", err);
 }
 
 }  // namespace
@@ -235,7 +204,7 @@ std::string slurp(const fs::path& p) {
 TEST(EndToEnd, InterruptAndTerminateKeepEveryFinishedEpisode) {
   for (const int sig : {SIGINT, SIGTERM}) {
     SCOPED_TRACE(sig == SIGINT ? "SIGINT" : "SIGTERM");
-    const fs::path out = fresh_dir("interrupt");
+    const fs::path out = fresh_dir("e2e", "interrupt");
     const fs::path err = out / "stderr";
     const pid_t pid = spawn_run("episodes=50 model.type=gp_prior optimizer.max_evaluations=2000",
                                 out, err);
@@ -255,9 +224,9 @@ TEST(EndToEnd, InterruptAndTerminateKeepEveryFinishedEpisode) {
     EXPECT_GE(done, 2);
     EXPECT_LT(done, 50);
     EXPECT_EQ(count_lines(csv), done + 1);
-    EXPECT_NE(slurp(err).find("continue it with: drops run --resume " + (out / "run").string()),
+    EXPECT_NE(read_file(err).find("continue it with: drops run --resume " + (out / "run").string()),
               std::string::npos)
-        << slurp(err);
+        << read_file(err);
     fs::remove_all(out);
   }
 }
@@ -265,7 +234,7 @@ TEST(EndToEnd, InterruptAndTerminateKeepEveryFinishedEpisode) {
 // Interrupted during episode 1 (the policy search on the prior), a run has no checkpoint: it says
 // to start again and does not offer a --resume that would be refused.
 TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
-  const fs::path out = fresh_dir("first");
+  const fs::path out = fresh_dir("e2e", "first");
   const fs::path err = out / "stderr";
   const pid_t pid = spawn_run("optimizer.max_evaluations=200000", out, err);
   for (int i = 0; i < 600 && !fs::exists(out / "run" / "summary.json"); ++i)
@@ -276,7 +245,7 @@ TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 130);
-  const std::string text = slurp(err);
+  const std::string text = read_file(err);
   EXPECT_EQ(text.find("--resume"), std::string::npos) << text;
   EXPECT_NE(text.find("no episode finished, so there is nothing to continue: start the run again"),
             std::string::npos)
@@ -285,7 +254,7 @@ TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
   EXPECT_EQ(read_json(out / "run" / "summary.json")["status"], "interrupted");
   // ... and --resume, tried anyway, says the same.
   std::string resume_err;
-  EXPECT_EQ(run("run --resume " + (out / "run").string(), &resume_err), 1);
+  EXPECT_EQ(run_drops("run --resume " + (out / "run").string(), &resume_err), 1);
   EXPECT_NE(resume_err.find("no checkpoint.json"), std::string::npos) << resume_err;
   fs::remove_all(out);
 }
@@ -293,7 +262,7 @@ TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
 // Runs with the default name (which holds the time to the second) started together get a
 // directory each: the name is claimed with mkdir, and a taken one gets "-2", "-3", ...
 TEST(EndToEnd, RunsStartedInTheSameSecondGetADirectoryEach) {
-  const fs::path out = fresh_dir("same-second");
+  const fs::path out = fresh_dir("e2e", "same-second");
   // Taken names for the next seconds, so that the runs below must avoid them.
   const std::string base = "pendubot-gp_mi-tunable-useful-seed1-";
   const auto now = std::chrono::system_clock::now();
@@ -306,20 +275,12 @@ TEST(EndToEnd, RunsStartedInTheSameSecondGetADirectoryEach) {
     fs::create_directories(out / (base + stamp));
     std::ofstream(out / (base + stamp) / "episodes.csv") << "episode\n";
   }
-  const std::string cmd = std::string(DROPS_BINARY) +
-                          " run episodes=1 optimizer.max_evaluations=40 "
-                          "optimizer.prior_optimizations=1 rollouts.predicted=2 "
-                          "optimizer.reevaluation_rollouts=2 threads=1 -q --output " +
-                          out.string();
+  const std::string args =
+      "run episodes=1 optimizer.max_evaluations=40 optimizer.prior_optimizations=1 "
+      "rollouts.predicted=2 optimizer.reevaluation_rollouts=2 threads=1 -q --output " +
+      out.string();
   std::vector<pid_t> pids;
-  for (int i = 0; i < 3; ++i) {
-    const pid_t pid = fork();
-    if (pid == 0) {
-      execl("/bin/sh", "sh", "-c", ("exec " + cmd + " 2>/dev/null").c_str(), nullptr);
-      _exit(127);
-    }
-    pids.push_back(pid);
-  }
+  for (int i = 0; i < 3; ++i) pids.push_back(spawn_drops(args));
   for (const pid_t pid : pids) {
     int status = 0;
     waitpid(pid, &status, 0);
@@ -347,13 +308,15 @@ TEST(EndToEnd, RunsStartedInTheSameSecondGetADirectoryEach) {
 // episodes with any thread count): episode speeds -0.082, 0.140, 0.073 m/s (episode 1 tips the
 // five-legged robot over), leg 5 picked at episodes 2 and 3; about 2.5 minutes on one core.
 TEST(EndToEnd, HexapodWithoutARearLegWalksFasterThanThePriorOnlyPolicyWithinThreeEpisodes) {
-  const fs::path out = fresh_dir("hexapod");
+  const fs::path out = fresh_dir("e2e", "hexapod");
   std::string err;
-  const int rc = run("run " + std::string(DROPS_SOURCE_DIR) +
-                         "/configs/hexapod-gp_mi.yaml hexapod.damage.removed_leg=leg5 episodes=3 "
-                         "seed=1 optimizer.max_evaluations=500 optimizer.prior_optimizations=1 "
-                         "--output " + out.string() + " --name run -q",
-                     &err);
+  const int rc =
+      run_drops("run " + std::string(DROPS_SOURCE_DIR) +
+                    "/configs/hexapod-gp_mi.yaml hexapod.damage.removed_leg=leg5 episodes=3 "
+                    "seed=1 optimizer.max_evaluations=500 optimizer.prior_optimizations=1 "
+                    "--output " +
+                    out.string() + " --name run -q",
+                &err);
   ASSERT_EQ(rc, 0) << err;
   const auto summary = read_json(out / "run" / "summary.json");
   EXPECT_EQ(summary["status"], "complete");

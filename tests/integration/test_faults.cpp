@@ -21,7 +21,15 @@
 #include <thread>
 #include <vector>
 
+#include "cli_test_util.hpp"
+
 namespace fs = std::filesystem;
+using drops::cli_test::episodes_without_timing;
+using drops::cli_test::fresh_dir;
+using drops::cli_test::read_file;
+using drops::cli_test::run_drops;
+using drops::cli_test::spawn_drops;
+using drops::cli_test::write_file;
 
 namespace {
 
@@ -31,47 +39,10 @@ const std::string kRun =
     "run episodes=3 seed=5 threads=1 optimizer.max_evaluations=400 optimizer.restarts=0 "
     "rollouts.predicted=2 optimizer.reevaluation_rollouts=4";
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("drops-faults-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary | std::ios::trunc) << text;
-}
-
-int run(const std::string& args, std::string* err_text = nullptr) {
-  const fs::path err = fs::temp_directory_path() / ("drops-faults-err-" + std::to_string(getpid()));
-  const int rc =
-      std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err.string()).c_str());
-  if (err_text) *err_text = slurp(err);
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : 128 + WTERMSIG(rc);
-}
-
-pid_t spawn(const std::string& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const std::string cmd = std::string("exec ") + DROPS_BINARY + " " + args + " 2>/dev/null";
-    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  return pid;
-}
-
 /// Runs `drops <args>` and SIGKILLs it after `delay` unless it ends first; returns its exit code,
 /// or -1 when it was killed.
 int run_and_kill_after(const std::string& args, std::chrono::milliseconds delay) {
-  const pid_t pid = spawn(args);
+  const pid_t pid = spawn_drops(args);
   const auto deadline = std::chrono::steady_clock::now() + delay;
   int status = 0;
   while (std::chrono::steady_clock::now() < deadline) {
@@ -83,32 +54,18 @@ int run_and_kill_after(const std::string& args, std::chrono::milliseconds delay)
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-/// episodes.csv without the wall-clock columns (model_learning_s, policy_optimization_s).
-std::string results_of(const fs::path& run_dir) {
-  std::istringstream in(slurp(run_dir / "episodes.csv"));
-  std::string line, out;
-  while (std::getline(in, line)) {
-    std::stringstream ls(line);
-    std::string x;
-    for (int i = 0; std::getline(ls, x, ','); ++i)
-      if (i != 6 && i != 7) out += x + ",";
-    out += "\n";
-  }
-  return out;
-}
-
 void expect_same_episodes(const fs::path& a, const fs::path& b, int episodes) {
-  EXPECT_EQ(results_of(a), results_of(b));
+  EXPECT_EQ(episodes_without_timing(a), episodes_without_timing(b));
   for (int e = 1; e <= episodes; ++e) {
     char ep[8];
     std::snprintf(ep, sizeof ep, "%03d", e);
     for (const char* f : {"real.csv", "predicted.csv", "policy.csv"}) {
       const fs::path pa = a / "episodes" / ep / f, pb = b / "episodes" / ep / f;
       ASSERT_TRUE(fs::exists(pb)) << pb;
-      EXPECT_EQ(slurp(pa), slurp(pb)) << "episode " << ep << " " << f;
+      EXPECT_EQ(read_file(pa), read_file(pb)) << "episode " << ep << " " << f;
     }
   }
-  const auto sb = nlohmann::json::parse(slurp(b / "summary.json"));
+  const auto sb = nlohmann::json::parse(read_file(b / "summary.json"));
   EXPECT_EQ(sb["status"], "complete");
   EXPECT_EQ(sb["episodes_done"], episodes);
 }
@@ -131,10 +88,10 @@ std::string replace_first(std::string text, const std::string& from, const std::
 // run is continued with --resume (and killed again, until one finishes), or started again when no
 // episode had finished, as a user would. Every episode file then equals an uninterrupted run's.
 TEST(Faults, RunsKilledAtRandomMomentsAndResumedGiveTheEpisodesOfAnUninterruptedRun) {
-  const fs::path out = fresh_dir("kill");
+  const fs::path out = fresh_dir("faults", "kill");
   const auto t0 = std::chrono::steady_clock::now();
   std::string err;
-  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name full -q", &err), 0) << err;
+  ASSERT_EQ(run_drops(kRun + " --output " + out.string() + " --name full -q", &err), 0) << err;
   const auto full_ms =
       std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0)
           .count();
@@ -172,9 +129,10 @@ TEST(Faults, RunsKilledAtRandomMomentsAndResumedGiveTheEpisodesOfAnUninterrupted
 // 2-episode run that is then extended to 3 episodes: the resume is refused with the named file in
 // the message, and episodes.csv, summary.json and checkpoint.json stay as they were.
 TEST(Faults, ADamagedRunDirectoryIsRefusedWithAnErrorNamingTheFile) {
-  const fs::path out = fresh_dir("damage");
+  const fs::path out = fresh_dir("faults", "damage");
   std::string err;
-  ASSERT_EQ(run(kRun + " episodes=2 --output " + out.string() + " --name base -q", &err), 0) << err;
+  ASSERT_EQ(run_drops(kRun + " episodes=2 --output " + out.string() + " --name base -q", &err), 0)
+      << err;
   struct Damage {
     std::string name;
     std::function<void(const fs::path&)> apply;
@@ -183,65 +141,75 @@ TEST(Faults, ADamagedRunDirectoryIsRefusedWithAnErrorNamingTheFile) {
   };
   const std::vector<Damage> damages = {
       {"csv-cut-mid-line",
-       [](const fs::path& d) { write(d / "episodes.csv", cut(slurp(d / "episodes.csv"), 12)); }, 1,
-       "/episodes.csv holds 1 complete rows, but checkpoint.json covers 2 episodes"},
+       [](const fs::path& d) {
+         write_file(d / "episodes.csv", cut(read_file(d / "episodes.csv"), 12));
+       },
+       1, "/episodes.csv holds 1 complete rows, but checkpoint.json covers 2 episodes"},
       {"csv-deleted", [](const fs::path& d) { fs::remove(d / "episodes.csv"); }, 1,
        "/episodes.csv is missing"},
       {"csv-edited",
        [](const fs::path& d) {
-         write(d / "episodes.csv", replace_first(slurp(d / "episodes.csv"), "\n1,", "\n1,9"));
+         write_file(d / "episodes.csv",
+                    replace_first(read_file(d / "episodes.csv"), "\n1,", "\n1,9"));
        },
        1, "/episodes.csv: its header and rows 1-2 differ from what drops recorded"},
       {"config-cut-mid-line",
-       [](const fs::path& d) { write(d / "config.yaml", slurp(d / "config.yaml").substr(0, 100)); },
+       [](const fs::path& d) {
+         write_file(d / "config.yaml", read_file(d / "config.yaml").substr(0, 100));
+       },
        0, "/config.yaml"},  // where the cut lands depends on the path's length: exit 1 or 2
       {"config-cut-after-a-line",
        [](const fs::path& d) {
-         const std::string text = slurp(d / "config.yaml");
-         write(d / "config.yaml", text.substr(0, text.find("\noptimizer:") + 1));
+         const std::string text = read_file(d / "config.yaml");
+         write_file(d / "config.yaml", text.substr(0, text.find("\noptimizer:") + 1));
        },
        1, "/config.yaml lacks the key"},
       {"config-edited",
        [](const fs::path& d) {
-         write(d / "config.yaml", replace_first(slurp(d / "config.yaml"), "max_evaluations: 400",
-                                                "max_evaluations: 500"));
+         write_file(d / "config.yaml",
+                    replace_first(read_file(d / "config.yaml"), "max_evaluations: 400",
+                                  "max_evaluations: 500"));
        },
        2,
        "/config.yaml: key 'optimizer.max_evaluations' is '500', but the run was started with "
        "'400'"},
       {"checkpoint-episodes-done-edited",
        [](const fs::path& d) {
-         write(d / "checkpoint.json", replace_first(slurp(d / "checkpoint.json"),
-                                                    "\"episodes_done\":2", "\"episodes_done\":3"));
+         write_file(d / "checkpoint.json",
+                    replace_first(read_file(d / "checkpoint.json"), "\"episodes_done\":2",
+                                  "\"episodes_done\":3"));
        },
        1, "/checkpoint.json does not match its own checksum"},
       {"checkpoint-truncated",
        [](const fs::path& d) {
-         write(d / "checkpoint.json", cut(slurp(d / "checkpoint.json"), 100));
+         write_file(d / "checkpoint.json", cut(read_file(d / "checkpoint.json"), 100));
        },
        1, "/checkpoint.json cannot be parsed"},
       {"summary-truncated",
-       [](const fs::path& d) { write(d / "summary.json", cut(slurp(d / "summary.json"), 30)); }, 1,
-       "/summary.json cannot be parsed"},
+       [](const fs::path& d) {
+         write_file(d / "summary.json", cut(read_file(d / "summary.json"), 30));
+       },
+       1, "/summary.json cannot be parsed"},
       {"summary-deleted", [](const fs::path& d) { fs::remove(d / "summary.json"); }, 1,
        "/summary.json is missing"},
       {"summary-episode-edited",
        [](const fs::path& d) {
-         auto s = nlohmann::json::parse(slurp(d / "summary.json"));
+         auto s = nlohmann::json::parse(read_file(d / "summary.json"));
          s["episodes"][0]["real_return"] = 49.0;
-         write(d / "summary.json", s.dump(2));
+         write_file(d / "summary.json", s.dump(2));
        },
        1, "/summary.json: the records of episodes 1-2 differ"},
       {"summary-episode-removed",
        [](const fs::path& d) {
-         auto s = nlohmann::json::parse(slurp(d / "summary.json"));
+         auto s = nlohmann::json::parse(read_file(d / "summary.json"));
          s["episodes"].erase(1);
-         write(d / "summary.json", s.dump(2));
+         write_file(d / "summary.json", s.dump(2));
        },
        1, "/summary.json records 1 entry of episodes 1-2"},
       {"policy-edited",
        [](const fs::path& d) {
-         write(d / "episodes/001/policy.csv", "0.5\n" + slurp(d / "episodes/001/policy.csv"));
+         write_file(d / "episodes/001/policy.csv",
+                    "0.5\n" + read_file(d / "episodes/001/policy.csv"));
        },
        1, "/episodes/001/policy.csv differs from what drops recorded"},
       {"episode-folder-deleted", [](const fs::path& d) { fs::remove_all(d / "episodes/002"); }, 1,
@@ -252,21 +220,22 @@ TEST(Faults, ADamagedRunDirectoryIsRefusedWithAnErrorNamingTheFile) {
     const fs::path dir = out / damage.name;
     fs::copy(out / "base", dir, fs::copy_options::recursive);
     damage.apply(dir);
-    const std::string csv = slurp(dir / "episodes.csv"), summary = slurp(dir / "summary.json"),
-                      checkpoint = slurp(dir / "checkpoint.json");
-    const int code = run("run --resume " + dir.string() + " episodes=3 -q", &err);
+    const std::string csv = read_file(dir / "episodes.csv"),
+                      summary = read_file(dir / "summary.json"),
+                      checkpoint = read_file(dir / "checkpoint.json");
+    const int code = run_drops("run --resume " + dir.string() + " episodes=3 -q", &err);
     if (damage.exit_code == 0)
       EXPECT_TRUE(code == 1 || code == 2) << code << ": " << err;
     else
       EXPECT_EQ(code, damage.exit_code) << err;
     EXPECT_NE(err.find(dir.string() + damage.message), std::string::npos)
         << "expected '" << dir.string() + damage.message << "' in: " << err;
-    EXPECT_EQ(slurp(dir / "episodes.csv"), csv);
-    EXPECT_EQ(slurp(dir / "summary.json"), summary);
-    EXPECT_EQ(slurp(dir / "checkpoint.json"), checkpoint);
+    EXPECT_EQ(read_file(dir / "episodes.csv"), csv);
+    EXPECT_EQ(read_file(dir / "summary.json"), summary);
+    EXPECT_EQ(read_file(dir / "checkpoint.json"), checkpoint);
   }
   // --resume with an empty path is an error, not a new run in the working directory's runs/.
-  EXPECT_EQ(run("run --resume \"\" -q", &err), 2);
+  EXPECT_EQ(run_drops("run --resume \"\" -q", &err), 2);
   EXPECT_NE(err.find("--resume needs the run directory"), std::string::npos) << err;
   fs::remove_all(out);
 }
@@ -276,22 +245,23 @@ TEST(Faults, ADamagedRunDirectoryIsRefusedWithAnErrorNamingTheFile) {
 // episodes of an uninterrupted run. A run directory from before the checksums (checkpoint format
 // 1) resumes too, with structural checks only.
 TEST(Faults, WhatACrashLeavesAfterTheCheckpointIsRepairedAndOldRunDirectoriesResume) {
-  const fs::path out = fresh_dir("repair");
+  const fs::path out = fresh_dir("faults", "repair");
   std::string err;
-  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name full -q", &err), 0) << err;
-  ASSERT_EQ(run(kRun + " episodes=2 --output " + out.string() + " --name base -q", &err), 0) << err;
+  ASSERT_EQ(run_drops(kRun + " --output " + out.string() + " --name full -q", &err), 0) << err;
+  ASSERT_EQ(run_drops(kRun + " episodes=2 --output " + out.string() + " --name base -q", &err), 0)
+      << err;
 
   const fs::path cut_row = out / "cut-row";
   fs::copy(out / "base", cut_row, fs::copy_options::recursive);
   {
     std::ofstream(cut_row / "episodes.csv", std::ios::app) << "3,7.500,12.3";  // no newline
-    auto s = nlohmann::json::parse(slurp(cut_row / "summary.json"));
+    auto s = nlohmann::json::parse(read_file(cut_row / "summary.json"));
     s["episodes"].push_back({{"episode", 3}, {"solved", false}, {"real_return", 12.3}});
-    write(cut_row / "summary.json", s.dump(2));
+    write_file(cut_row / "summary.json", s.dump(2));
     fs::create_directories(cut_row / "episodes/003");
-    write(cut_row / "episodes/003/real.csv.tmp", "t,th");
+    write_file(cut_row / "episodes/003/real.csv.tmp", "t,th");
   }
-  ASSERT_EQ(run("run --resume " + cut_row.string() + " episodes=3", &err), 0) << err;
+  ASSERT_EQ(run_drops("run --resume " + cut_row.string() + " episodes=3", &err), 0) << err;
   EXPECT_NE(err.find("resume: removed 1 line of episodes.csv after episode 2"), std::string::npos)
       << err;
   EXPECT_NE(err.find("cut mid-line by a crash"), std::string::npos) << err;
@@ -302,22 +272,22 @@ TEST(Faults, WhatACrashLeavesAfterTheCheckpointIsRepairedAndOldRunDirectoriesRes
   // A checkpoint of format 1 (no validation block, no checksum) from an older drops.
   const fs::path old = out / "format1";
   fs::copy(out / "base", old, fs::copy_options::recursive);
-  auto cp = nlohmann::json::parse(slurp(old / "checkpoint.json"));
+  auto cp = nlohmann::json::parse(read_file(old / "checkpoint.json"));
   cp.erase("validation");
   cp.erase("checksum");
   cp["format"] = 1;
-  write(old / "checkpoint.json", cp.dump());
-  ASSERT_EQ(run("run --resume " + old.string() + " episodes=3 -q", &err), 0) << err;
+  write_file(old / "checkpoint.json", cp.dump());
+  ASSERT_EQ(run_drops("run --resume " + old.string() + " episodes=3 -q", &err), 0) << err;
   expect_same_episodes(out / "full", old, 3);
   // ... and writes format 2 from then on.
-  EXPECT_EQ(nlohmann::json::parse(slurp(old / "checkpoint.json"))["format"], 2);
+  EXPECT_EQ(nlohmann::json::parse(read_file(old / "checkpoint.json"))["format"], 2);
 
   // Format 1 with a row cut inside what the checkpoint covers: refused.
   const fs::path old_cut = out / "format1-cut";
   fs::copy(out / "base", old_cut, fs::copy_options::recursive);
-  write(old_cut / "checkpoint.json", cp.dump());
-  write(old_cut / "episodes.csv", cut(slurp(old_cut / "episodes.csv"), 12) + "\n");
-  EXPECT_EQ(run("run --resume " + old_cut.string() + " episodes=3 -q", &err), 1);
+  write_file(old_cut / "checkpoint.json", cp.dump());
+  write_file(old_cut / "episodes.csv", cut(read_file(old_cut / "episodes.csv"), 12) + "\n");
+  EXPECT_EQ(run_drops("run --resume " + old_cut.string() + " episodes=3 -q", &err), 1);
   EXPECT_NE(err.find(old_cut.string() + "/episodes.csv: row 2"), std::string::npos) << err;
   fs::remove_all(out);
 }

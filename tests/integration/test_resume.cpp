@@ -1,24 +1,30 @@
 // `drops run --resume`: a run interrupted (SIGINT) or killed (SIGKILL) part-way and continued
 // produces exactly the episodes of an uninterrupted run with the same seed (slow; label "slow").
+#include <fcntl.h>
 #include <gtest/gtest.h>
-
-#include <nlohmann/json.hpp>
+#include <sys/file.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-#include <sys/file.h>
-#include <sys/wait.h>
-#include <fcntl.h>
 #include <thread>
-#include <unistd.h>
 #include <vector>
 
+#include "cli_test_util.hpp"
+
 namespace fs = std::filesystem;
+using drops::cli_test::episodes_without_timing;
+using drops::cli_test::fresh_dir;
+using drops::cli_test::read_file;
+using drops::cli_test::run_drops;
+using drops::cli_test::spawn_drops;
 
 namespace {
 
@@ -28,42 +34,9 @@ const std::string kRun =
     "run episodes=4 seed=3 threads=1 optimizer.max_evaluations=600 optimizer.restarts=0 "
     "rollouts.predicted=2";
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("drops-resume-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-int run(const std::string& args, std::string* err_text = nullptr) {
-  const fs::path err = fs::temp_directory_path() / ("drops-resume-err-" + std::to_string(getpid()));
-  const int rc = std::system((std::string(DROPS_BINARY) + " " + args + " 2> " + err.string()).c_str());
-  if (err_text) *err_text = slurp(err);
-  return WEXITSTATUS(rc);
-}
-
-/// Starts `drops <args>` in the background; returns its pid.
-pid_t spawn(const std::string& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const std::string cmd = std::string("exec ") + DROPS_BINARY + " " + args + " 2>/dev/null";
-    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  return pid;
-}
-
 int episodes_in_checkpoint(const fs::path& run_dir) {
   try {
-    const auto j = nlohmann::json::parse(slurp(run_dir / "checkpoint.json"));
+    const auto j = nlohmann::json::parse(read_file(run_dir / "checkpoint.json"));
     return j.at("episodes_done").get<int>();
   } catch (...) {
     return 0;
@@ -80,25 +53,9 @@ void wait_for_checkpoint(pid_t pid, const fs::path& run_dir, int episodes) {
   }
 }
 
-/// episodes.csv without the wall-clock columns (model_learning_s, policy_optimization_s).
-std::string results_of(const fs::path& run_dir) {
-  std::istringstream in(slurp(run_dir / "episodes.csv"));
-  std::string line, out;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ls(line);
-    std::string x;
-    while (std::getline(ls, x, ',')) f.push_back(x);
-    for (std::size_t i = 0; i < f.size(); ++i)
-      if (i != 6 && i != 7) out += f[i] + ",";
-    out += "\n";
-  }
-  return out;
-}
-
 /// Every file of every episode, byte for byte, and the episode table.
 void expect_same_episodes(const fs::path& a, const fs::path& b, int episodes) {
-  EXPECT_EQ(results_of(a), results_of(b));
+  EXPECT_EQ(episodes_without_timing(a), episodes_without_timing(b));
   for (int e = 1; e <= episodes; ++e) {
     char ep[8];
     std::snprintf(ep, sizeof ep, "%03d", e);
@@ -106,11 +63,11 @@ void expect_same_episodes(const fs::path& a, const fs::path& b, int episodes) {
       const fs::path pa = a / "episodes" / ep / f, pb = b / "episodes" / ep / f;
       ASSERT_TRUE(fs::exists(pa)) << pa;
       ASSERT_TRUE(fs::exists(pb)) << pb;
-      EXPECT_EQ(slurp(pa), slurp(pb)) << "episode " << ep << " " << f;
+      EXPECT_EQ(read_file(pa), read_file(pb)) << "episode " << ep << " " << f;
     }
   }
-  const auto sa = nlohmann::json::parse(slurp(a / "summary.json"));
-  const auto sb = nlohmann::json::parse(slurp(b / "summary.json"));
+  const auto sa = nlohmann::json::parse(read_file(a / "summary.json"));
+  const auto sb = nlohmann::json::parse(read_file(b / "summary.json"));
   EXPECT_EQ(sb["status"], "complete");
   EXPECT_EQ(sa["episodes_done"], sb["episodes_done"]);
   EXPECT_EQ(sa.value("first_solved_episode", 0), sb.value("first_solved_episode", 0));
@@ -120,32 +77,32 @@ void expect_same_episodes(const fs::path& a, const fs::path& b, int episodes) {
 }  // namespace
 
 TEST(Resume, InterruptedRunContinuesToTheSameEpisodesAsAnUninterruptedOne) {
-  const fs::path out = fresh_dir("sigint");
-  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name full -q"), 0);
+  const fs::path out = fresh_dir("resume", "sigint");
+  ASSERT_EQ(run_drops(kRun + " --output " + out.string() + " --name full -q"), 0);
 
-  const pid_t pid = spawn(kRun + " --output " + out.string() + " --name part -q");
+  const pid_t pid = spawn_drops(kRun + " --output " + out.string() + " --name part -q");
   wait_for_checkpoint(pid, out / "part", 2);
   kill(pid, SIGINT);
   int status = 0;
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before it could be interrupted";
-  const auto s = nlohmann::json::parse(slurp(out / "part" / "summary.json"));
+  const auto s = nlohmann::json::parse(read_file(out / "part" / "summary.json"));
   EXPECT_EQ(s["status"], "interrupted");
   const int done = s["episodes_done"].get<int>();
   ASSERT_GE(done, 2);
   ASSERT_LT(done, 4);
 
   std::string err;
-  ASSERT_EQ(run("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
   expect_same_episodes(out / "full", out / "part", 4);
   fs::remove_all(out);
 }
 
 TEST(Resume, KilledRunDropsItsUnfinishedEpisodeAndContinuesIdentically) {
-  const fs::path out = fresh_dir("sigkill");
-  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name full -q"), 0);
-  const pid_t pid = spawn(kRun + " --output " + out.string() + " --name part -q");
+  const fs::path out = fresh_dir("resume", "sigkill");
+  ASSERT_EQ(run_drops(kRun + " --output " + out.string() + " --name full -q"), 0);
+  const pid_t pid = spawn_drops(kRun + " --output " + out.string() + " --name part -q");
   wait_for_checkpoint(pid, out / "part", 1);
   kill(pid, SIGKILL);
   int status = 0;
@@ -164,59 +121,60 @@ TEST(Resume, KilledRunDropsItsUnfinishedEpisodeAndContinuesIdentically) {
     std::ofstream(out / "part" / "episodes" / ep / "real.csv") << "garbage\n";
   }
   std::string err;
-  ASSERT_EQ(run("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
   expect_same_episodes(out / "full", out / "part", 4);
   fs::remove_all(out);
 }
 
 TEST(Resume, ACompleteRunCanBeExtendedWithMoreEpisodes) {
-  const fs::path out = fresh_dir("extend");
-  ASSERT_EQ(run(kRun + " episodes=5 --output " + out.string() + " --name five -q"), 0);
-  ASSERT_EQ(run(kRun + " --output " + out.string() + " --name four -q"), 0);
+  const fs::path out = fresh_dir("resume", "extend");
+  ASSERT_EQ(run_drops(kRun + " episodes=5 --output " + out.string() + " --name five -q"), 0);
+  ASSERT_EQ(run_drops(kRun + " --output " + out.string() + " --name four -q"), 0);
   std::string err;
-  ASSERT_EQ(run("run --resume " + (out / "four").string() + " episodes=5 -q", &err), 0) << err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "four").string() + " episodes=5 -q", &err), 0)
+      << err;
   expect_same_episodes(out / "five", out / "four", 5);
   // config.yaml says what the run is now: 5 episodes, and `drops run` of it repeats the run.
-  EXPECT_NE(slurp(out / "four" / "config.yaml").find("\nepisodes: 5\n"), std::string::npos)
-      << slurp(out / "four" / "config.yaml");
-  ASSERT_EQ(run("run " + (out / "four" / "config.yaml").string() + " --output " + out.string() +
-                    " --name again -q",
-                &err),
+  EXPECT_NE(read_file(out / "four" / "config.yaml").find("\nepisodes: 5\n"), std::string::npos)
+      << read_file(out / "four" / "config.yaml");
+  ASSERT_EQ(run_drops("run " + (out / "four" / "config.yaml").string() + " --output " +
+                          out.string() + " --name again -q",
+                      &err),
             0)
       << err;
   expect_same_episodes(out / "five", out / "again", 5);
   // Fewer episodes than are done is refused.
-  EXPECT_EQ(run("run --resume " + (out / "four").string() + " episodes=3", &err), 2);
+  EXPECT_EQ(run_drops("run --resume " + (out / "four").string() + " episodes=3", &err), 2);
   EXPECT_NE(err.find("episodes = 3, but the run has already done 5 episodes"), std::string::npos)
       << err;
   // Resuming a complete run is a no-op that says so.
-  ASSERT_EQ(run("run --resume " + (out / "four").string(), &err), 0) << err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "four").string(), &err), 0) << err;
   EXPECT_NE(err.find("nothing to do"), std::string::npos) << err;
   fs::remove_all(out);
 }
 
 TEST(Resume, RefusesWhatItCannotContinue) {
-  const fs::path out = fresh_dir("refuse");
+  const fs::path out = fresh_dir("resume", "refuse");
   std::string err;
   // Not a run directory.
-  EXPECT_EQ(run("run --resume " + (out / "nothing").string(), &err), 1);
+  EXPECT_EQ(run_drops("run --resume " + (out / "nothing").string(), &err), 1);
   EXPECT_NE(err.find("not a run directory"), std::string::npos) << err;
-  ASSERT_EQ(run(kRun + " episodes=1 --output " + out.string() + " --name one -q"), 0);
+  ASSERT_EQ(run_drops(kRun + " episodes=1 --output " + out.string() + " --name one -q"), 0);
   // Changing anything but episodes/threads would break the equivalence with an uninterrupted run.
-  EXPECT_EQ(run("run --resume " + (out / "one").string() + " seed=4", &err), 2);
+  EXPECT_EQ(run_drops("run --resume " + (out / "one").string() + " seed=4", &err), 2);
   EXPECT_NE(err.find("'seed'"), std::string::npos) << err;
   // A directory whose process still holds the lock.
   {
     const int fd = ::open((out / "one" / ".lock").c_str(), O_RDWR);
     ASSERT_GE(fd, 0);
     ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
-    EXPECT_EQ(run("run --resume " + (out / "one").string() + " episodes=2", &err), 3);
+    EXPECT_EQ(run_drops("run --resume " + (out / "one").string() + " episodes=2", &err), 3);
     EXPECT_NE(err.find("in use"), std::string::npos) << err;
     ::close(fd);
   }
   // No episode ever finished: nothing to continue.
   fs::remove(out / "one" / "checkpoint.json");
-  EXPECT_EQ(run("run --resume " + (out / "one").string() + " episodes=2", &err), 1);
+  EXPECT_EQ(run_drops("run --resume " + (out / "one").string() + " episodes=2", &err), 1);
   EXPECT_NE(err.find("no checkpoint.json"), std::string::npos) << err;
   fs::remove_all(out);
 }
@@ -225,12 +183,12 @@ TEST(Resume, RefusesWhatItCannotContinue) {
 // MAP-Elites cursor) and checkpoint.json (no episode yet) continue it to the same archive and the
 // same trials as an uninterrupted run.
 TEST(Resume, IteKilledWhileBuildingItsArchiveContinuesToTheSameArchiveAndTrials) {
-  const fs::path out = fresh_dir("ite");
+  const fs::path out = fresh_dir("resume", "ite");
   const std::string ite =
       "run algorithm=ite episodes=4 seed=2 threads=2 ite.evaluations=60000 ite.bins=4 "
       "ite.stop_ratio=0 ite.checkpoint_minutes=0 --output " + out.string();
-  ASSERT_EQ(run(ite + " --name full -q"), 0);
-  const pid_t pid = spawn(ite + " --name part -q");
+  ASSERT_EQ(run_drops(ite + " --name full -q"), 0);
+  const pid_t pid = spawn_drops(ite + " --name part -q");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (!fs::exists(out / "part" / "checkpoint.json") &&
          std::chrono::steady_clock::now() < deadline)
@@ -241,11 +199,12 @@ TEST(Resume, IteKilledWhileBuildingItsArchiveContinuesToTheSameArchiveAndTrials)
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before it could be killed";
   ASSERT_EQ(episodes_in_checkpoint(out / "part"), 0) << "killed after its archive was complete";
-  EXPECT_NE(slurp(out / "part" / "archive.csv").find("# map_elites complete 0"), std::string::npos);
+  EXPECT_NE(read_file(out / "part" / "archive.csv").find("# map_elites complete 0"),
+            std::string::npos);
   std::string err;
-  ASSERT_EQ(run("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
   expect_same_episodes(out / "full", out / "part", 4);
-  EXPECT_EQ(slurp(out / "full" / "archive.csv"), slurp(out / "part" / "archive.csv"));
+  EXPECT_EQ(read_file(out / "full" / "archive.csv"), read_file(out / "part" / "archive.csv"));
   fs::remove_all(out);
 }
 
@@ -254,21 +213,21 @@ TEST(Resume, IteKilledWhileBuildingItsArchiveContinuesToTheSameArchiveAndTrials)
 // walking speed and state-guard counts per episode), bit-identical results with 1 and 2 threads
 // (DART prior copies leased from a pool, GP-MI over the 7 priors, rollouts and CMA-ES), and resume.
 TEST(Resume, HexapodRunIsIdenticalWithOneAndTwoThreadsAndResumes) {
-  const fs::path out = fresh_dir("hexapod");
+  const fs::path out = fresh_dir("resume", "hexapod");
   const std::string small =
       "run task=hexapod seed=4 hexapod.horizon=10 optimizer.max_evaluations=80 "
       "optimizer.restarts=0 optimizer.prior_optimizations=1 rollouts.predicted=2 "
       "model.rprop.iterations=40 --output " + out.string();
-  ASSERT_EQ(run(small + " episodes=3 threads=1 --name one -q"), 0);
-  ASSERT_EQ(run(small + " episodes=3 threads=2 --name two -q"), 0);
+  ASSERT_EQ(run_drops(small + " episodes=3 threads=1 --name one -q"), 0);
+  ASSERT_EQ(run_drops(small + " episodes=3 threads=2 --name two -q"), 0);
   expect_same_episodes(out / "one", out / "two", 3);
 
-  ASSERT_EQ(run(small + " episodes=2 threads=2 --name part -q"), 0);
-  ASSERT_EQ(run("run --resume " + (out / "part").string() + " episodes=3 -q"), 0);
+  ASSERT_EQ(run_drops(small + " episodes=2 threads=2 --name part -q"), 0);
+  ASSERT_EQ(run_drops("run --resume " + (out / "part").string() + " episodes=3 -q"), 0);
   expect_same_episodes(out / "one", out / "part", 3);
 
   // What the run directory holds for the hexapod.
-  std::istringstream real(slurp(out / "one" / "episodes" / "002" / "real.csv"));
+  std::istringstream real(read_file(out / "one" / "episodes" / "002" / "real.csv"));
   std::string header, line;
   std::getline(real, header);
   int rows = 0, columns = 1;
@@ -279,12 +238,12 @@ TEST(Resume, HexapodRunIsIdenticalWithOneAndTwoThreadsAndResumes) {
   EXPECT_EQ(header.rfind("t,q_leg0_hip,q_leg0_femur,q_leg0_tibia,", 0), 0u) << header;
   EXPECT_NE(header.find(",x,y,z,roll,pitch,yaw,vx,vy,vz,wx,wy,wz,u_leg0_hip,"), std::string::npos);
   EXPECT_NE(header.find(",reward,foot0_height,"), std::string::npos);
-  const std::string table = slurp(out / "one" / "episodes.csv");
+  const std::string table = read_file(out / "one" / "episodes.csv");
   EXPECT_NE(table.find(",walking_speed_m_s,predicted_speed_m_s,guard_evaluations,guard_stopped,"
                        "guard_clamped\n"),
             std::string::npos)
       << table;
-  const auto s = nlohmann::json::parse(slurp(out / "one" / "summary.json"));
+  const auto s = nlohmann::json::parse(read_file(out / "one" / "summary.json"));
   EXPECT_EQ(s["task"], "hexapod");
   EXPECT_EQ(s["prior"], "intact");
   EXPECT_EQ(s["phi_names"], nlohmann::json::array({"removed_leg"}));
@@ -296,7 +255,8 @@ TEST(Resume, HexapodRunIsIdenticalWithOneAndTwoThreadsAndResumes) {
 
   // drops plot on a hexapod run: the speed, the path from above and the gait diagram.
   const fs::path plots = out / "plots";
-  ASSERT_EQ(run("plot " + (out / "one").string() + " --episodes 2 --output " + plots.string()), 0);
+  ASSERT_EQ(
+      run_drops("plot " + (out / "one").string() + " --episodes 2 --output " + plots.string()), 0);
   for (const char* f : {"returns.png", "phi.png", "speed.png", "trajectories-002.png",
                         "path-002.png", "gait-002.png"})
     EXPECT_GT(fs::exists(plots / f) ? fs::file_size(plots / f) : 0u, 10000u) << f;
