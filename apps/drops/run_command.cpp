@@ -94,6 +94,7 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   algo::Callbacks cb;
   cb.should_stop = [] { return interrupt_requested(); };
   cb.on_status = [&](const algo::Status& s) {
+    dir->record_archive_progress(s);  // IT&E's archive: coverage against evaluations and time
     const auto now = std::chrono::steady_clock::now();
     if (s.phase == "archive" && !live && !quiet) {
       // Without a terminal (a campaign's log), a line a minute while an archive is built.

@@ -308,6 +308,23 @@ void RunDirectory::append_row(const std::string& row) {
   episodes_csv_text_ += row;
 }
 
+void RunDirectory::record_archive_progress(const algo::Status& status) {
+  if (status.phase != "archive") return;
+  const fs::path path = dir_ / "archive_progress.csv";
+  const bool fresh = !fs::exists(path);
+  std::ofstream out(path, std::ios::app);
+  if (fresh) out << "evaluations,seconds,coverage,best_fitness,utc\n";
+  const double seconds =
+      previous_seconds_ +
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_).count();
+  // A non-finite number (no elite yet) is an empty field, which CSV readers take as missing.
+  const auto field = [](double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : ""; };
+  out << fmt::format("{},{:.3f},{},{},{}\n", status.evaluations, seconds, field(status.coverage),
+                     field(status.best), now_iso());
+  out.flush();
+  if (!out) throw Error("cannot write " + path.string());
+}
+
 void RunDirectory::record(const algo::EpisodeRecord& rec) {
   const TaskSetup& setup = experiment_.setup;
   if (rec.keep_trajectories) {
@@ -759,6 +776,28 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     state->archive.cursor = file.info.cursor;
     rd->written_archive_ = file.archive;
     rd->written_complete_ = file.info.complete;
+    // archive_progress.csv may run past the archive's cursor (rows of generations the resumed
+    // run evaluates again): keep its rows up to the cursor.
+    const fs::path progress = dir / "archive_progress.csv";
+    if (fs::exists(progress)) {
+      std::istringstream in(read_text(progress));
+      std::string line, kept;
+      int dropped = 0;
+      for (bool header = true; std::getline(in, line); header = false) {
+        // A whole row has 5 fields and ends with the time (a crash may have cut the last one).
+        const bool whole = std::count(line.begin(), line.end(), ',') == 4 && line.back() == 'Z';
+        if (header || (whole && std::atol(line.c_str()) <= file.info.cursor.evaluations))
+          kept += line + "\n";
+        else
+          ++dropped;
+      }
+      if (dropped > 0) {
+        write_file_atomically(progress, kept);
+        rd->repairs_.push_back(fmt::format(
+            "removed {} of archive_progress.csv past the archive's {} evaluations",
+            plural(static_cast<std::size_t>(dropped), "row"), file.info.cursor.evaluations));
+      }
+    }
   } else if (k == 0 && !(summary.contains("phases") && !summary["phases"].empty())) {
     // Before the first real episode a checkpoint holds an archive (IT&E) or follows a phase
     // (PILCO with priors' simulation, recorded in summary.json "phases").

@@ -28,6 +28,25 @@ using drops::cli_test::spawn_drops;
 
 namespace {
 
+/// archive_progress.csv's rows without the seconds and the time, which differ between runs:
+/// "evaluations,coverage,best_fitness" per row.
+std::vector<std::string> archive_progress_rows(const fs::path& run_dir) {
+  std::istringstream in(read_file(run_dir / "archive_progress.csv"));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "evaluations,seconds,coverage,best_fitness,utc");
+  std::vector<std::string> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    EXPECT_EQ(f.size(), 5u) << line;
+    if (f.size() == 5) rows.push_back(f[0] + "," + f[2] + "," + f[3]);
+  }
+  return rows;
+}
+
+
 // Small budgets: a 4-episode run takes about a second, so the test stays fast while every part of
 // Algorithm 1 (prior-only episode, GP-MI learning, warm starts, policy search) is exercised.
 const std::string kRun =
@@ -205,6 +224,25 @@ TEST(Resume, IteKilledWhileBuildingItsArchiveContinuesToTheSameArchiveAndTrials)
   ASSERT_EQ(run_drops("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
   expect_same_episodes(out / "full", out / "part", 4);
   EXPECT_EQ(read_file(out / "full" / "archive.csv"), read_file(out / "part" / "archive.csv"));
+  // The progress of the archive: one row per generation, evaluations rising to the budget,
+  // coverage never falling and ending at the archive's; the resumed run's rows (those written
+  // past the cursor before the kill dropped) are the uninterrupted run's.
+  const std::vector<std::string> full = archive_progress_rows(out / "full");
+  ASSERT_GE(full.size(), 60000u / 400);
+  long last_evaluations = 0;
+  double last_coverage = 0;
+  for (const std::string& row : full) {
+    const long evaluations = std::atol(row.c_str());
+    const double coverage = std::atof(row.c_str() + row.find(',') + 1);
+    EXPECT_GT(evaluations, last_evaluations) << row;
+    EXPECT_GE(coverage, last_coverage) << row;
+    last_evaluations = evaluations;
+    last_coverage = coverage;
+  }
+  EXPECT_EQ(last_evaluations, 60000);
+  const auto summary = nlohmann::json::parse(read_file(out / "full" / "summary.json"));
+  EXPECT_NEAR(last_coverage, summary["archive"]["coverage"].get<double>(), 1e-9);
+  EXPECT_EQ(archive_progress_rows(out / "part"), full);
   fs::remove_all(out);
 }
 

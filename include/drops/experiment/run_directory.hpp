@@ -19,6 +19,7 @@
 ///                                 state that holds it, before checkpoint.json
 ///     .lock                       flock()ed by the process writing the directory
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -126,6 +127,15 @@ class RunDirectory {
   /// summary.json under "phases".<name> (its summary's numbers and texts, and "episodes": one
   /// object per episode of the phase), replacing an earlier record of the same name.
   void record_phase(const algo::PhaseRecord& phase);
+  /// Appends one row to archive_progress.csv for a status of phase "archive" (IT&E's MAP-Elites
+  /// on the prior; other phases are ignored): evaluations so far, seconds (wall clock of the run,
+  /// earlier sessions included as summary.json counted them), coverage in [0, 1], the archive's
+  /// best fitness (the task's return) and the UTC time. The file is created with its header on
+  /// the first row; a resumed run continues it (reopen() drops the rows past the archive's
+  /// cursor). One row per MAP-Elites generation (ite.batch offspring), so the curve of coverage
+  /// against evaluations or time can be drawn from it (docs/ite.md, "The run directory").
+  /// Throws drops::Error when the file cannot be written. Not thread-safe (caller's thread).
+  void record_archive_progress(const algo::Status& status);
   /// Writes checkpoint.json (atomically): doubles in the shortest form that reads back exactly,
   /// so a resumed run is bit-identical to an uninterrupted one. When the state holds an archive
   /// that was not written yet (another one, or now complete), writes it first as archive.csv
@@ -150,6 +160,8 @@ class RunDirectory {
   void write_summary(const std::string& status);
   int lock_fd_ = -1;
   double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
+  /// When this session opened the directory (archive_progress.csv's seconds).
+  std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
   std::shared_ptr<const ite::Archive> written_archive_;  ///< last written to archive.csv
   bool written_complete_ = false;                  ///< whether it was complete then
   bool has_checkpoint_ = false;
