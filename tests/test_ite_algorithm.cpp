@@ -154,6 +154,36 @@ TEST(IteAlgorithm, WhenTheRealSystemIsThePriorAdaptationStopsAfterOneTrial) {
   EXPECT_GT(gap.records.size(), 1u);
 }
 
+// ite.observation_floor: M-BOA observes max(floor, performance). With a floor above every return
+// of the pendubot (returns are in [0, 50]), trial 1's cell is observed at the floor, far above the
+// archive's fitness elsewhere, so UCB picks it again in every trial; without the floor the
+// misleading prior's trials move on (as in the test above). The recorded returns are the real ones.
+TEST(IteAlgorithm, AnObservationFloorIsWhatMboaSeesNotWhatIsRecorded) {
+  const std::vector<std::string> gap = {"prior.preset=tunable-misleading", "ite.stop_ratio=0"};
+  const auto plain = run(make(gap), 2);
+  std::vector<std::string> floored = gap;
+  floored.push_back("ite.observation_floor=1000");
+  const auto high = run(make(floored), 2);
+  ASSERT_EQ(plain.records.size(), 4u);
+  ASSERT_EQ(high.records.size(), 4u);
+  EXPECT_EQ(plain.records[0].theta, high.records[0].theta);  // the first pick: the archive's best
+  EXPECT_EQ(plain.records[0].real_return, high.records[0].real_return);
+  EXPECT_LT(high.records[0].real_return, 1000.0);
+  bool plain_moved = false;
+  for (std::size_t i = 1; i < 4; ++i) {
+    EXPECT_EQ(high.records[i].theta, high.records[0].theta) << "trial " << i + 1;
+    EXPECT_EQ(high.records[i].real_return, high.records[0].real_return);
+    plain_moved = plain_moved || plain.records[i].theta != plain.records[0].theta;
+  }
+  EXPECT_TRUE(plain_moved);
+  // A floor below every return changes nothing.
+  std::vector<std::string> low = gap;
+  low.push_back("ite.observation_floor=-1");
+  const auto same = run(make(low), 2);
+  ASSERT_EQ(same.records.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(same.records[i].theta, plain.records[i].theta);
+}
+
 TEST(IteAlgorithm, AResumedRunGivesTheTrialsOfAnUninterruptedOne) {
   const auto e = make({"ite.stop_ratio=0"});
   const Outcome whole = run(e, 2);

@@ -2,6 +2,7 @@
 // the adaptation); the pieces it uses follow it.
 #include "drops/algo/ite.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -47,6 +48,7 @@ bool IteOptions::IsValid(std::string* why) const {
     return fail("theta_bound: expected > 0, got " + std::to_string(theta_bound));
   if (!(performance_scale > 0) || !std::isfinite(performance_scale))
     return fail("performance_scale: expected > 0, got " + std::to_string(performance_scale));
+  if (std::isnan(observation_floor)) return fail("observation_floor: expected a number, got NaN");
   if (!(checkpoint_seconds >= 0))
     return fail("checkpoint_seconds: expected >= 0, got " + std::to_string(checkpoint_seconds));
   for (int b : bins)
@@ -74,6 +76,10 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
   options_.behaviour.check();
   const rollout::Task& task = *problem.task;
   const double scale = options_.performance_scale;
+  // What M-BOA observes of a real return (IteOptions::observation_floor).
+  const auto observation = [&](double real_return) {
+    return std::max(options_.observation_floor, scale * real_return);
+  };
   RunSummary summary;
   auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
 
@@ -120,7 +126,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
                             " episodes");
     for (Eigen::Index i = 0; i < cells->second.size(); ++i) {
       const ite::Cell cell = archive.cell_from_linear(static_cast<std::int64_t>(cells->second[i]));
-      mboa.observe(cell, scale * returns->second[i]);
+      mboa.observe(cell, observation(returns->second[i]));
       trial_cells.push_back(cells->second[i]);
       trial_returns.push_back(returns->second[i]);
     }
@@ -169,7 +175,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
     rec.solved = task.solved(rec.real);
     rec.interaction_time = episode * task.horizon() * task.dt();
     if (trial) {
-      mboa.observe(cell, scale * rec.real_return);
+      mboa.observe(cell, observation(rec.real_return));
       trial_cells.push_back(static_cast<double>(archive.linear_index(cell)));
       trial_returns.push_back(rec.real_return);
     }

@@ -88,6 +88,10 @@ std::vector<KeySpec> ite_keys() {
        "algorithm ite: M-BOA works on performance = scale x return (prior mean: scale x archive "
        "fitness), so that the kernel and kappa keep the reference's scale (empty = the task's, "
        "else " + num(io.performance_scale) + ")"});
+  add({"ite.observation_floor", "double", "", -1e12, 1e12, {}, "performance",
+       "algorithm ite: M-BOA observes max(floor, performance) of each trial, as the reference "
+       "(Cully et al. 2015) sets negative covered distances to 0 (empty = the task's, else no floor; the "
+       "recorded returns are not changed)"});
   add({"ite.after_stop", "enum", "repeat_best", 0, 0, {"repeat_best", "end"}, "-",
        "algorithm ite: once the stopping rule fired, run the best tested policy in each "
        "remaining episode (repeat_best: every run has `episodes` episodes), or end the run"});
@@ -231,6 +235,8 @@ algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
   mb.use_cell_centres = s.at("ite.cell_points") == "centre";
   if (!s.at("ite.performance_scale").empty())
     o.performance_scale = get_double(s, "ite.performance_scale");
+  if (!s.at("ite.observation_floor").empty())
+    o.observation_floor = get_double(s, "ite.observation_floor");
   o.after_stop = s.at("ite.after_stop") == "end" ? algo::IteAfterStop::kEnd
                                                  : algo::IteAfterStop::kRepeatBest;
   o.checkpoint_seconds = 60 * get_double(s, "ite.checkpoint_minutes");

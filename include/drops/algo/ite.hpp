@@ -5,6 +5,7 @@
 /// (baselines.md §3; docs/ite.md).
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -56,6 +57,13 @@ struct IteOptions {
   /// are not in the reference's metres ([0, 2.5]) can keep the reference's kernel and kappa
   /// (baselines.md §3c).
   double performance_scale = 1.0;
+  /// M-BOA observes max(observation_floor, performance_scale * return) (not NaN; -inf: no floor).
+  /// The reference (Cully et al. 2015) observes the covered distance and sets negative values to
+  /// 0 (baselines.md §3b), so a fall counts as no progress; without a floor a task whose return
+  /// penalises falls heavily (e.g. -10 per tipped step) lets one fall pull the
+  /// predicted performance of every cell far below the archive's range (docs/ite.md). The
+  /// recorded real returns are not changed.
+  double observation_floor = -std::numeric_limits<double>::infinity();
   /// What happens once the stopping rule fired.
   IteAfterStop after_stop = IteAfterStop::kRepeatBest;
   /// During MAP-Elites, on_state receives the archive so far at most every checkpoint_seconds

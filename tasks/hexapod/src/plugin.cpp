@@ -91,6 +91,9 @@ class HexapodPlugin final : public experiment::TaskPlugin {
             {"ite.mutation", "resample"},
             {"ite.mutation_rate", "0.05"},
             {"ite.performance_scale", "1"},
+            // The reference observes the covered distance, negative values set to 0: a fall
+            // (-10 per tipped step here) counts as no progress, not as -250 (docs/ite.md).
+            {"ite.observation_floor", "0"},
             {"ite.evaluations", "400000"}};
   }
 
