@@ -17,6 +17,7 @@
 ///                                 checksums of the recorded files and of itself (format 2)
 ///     archive.csv                 IT&E: the MAP-Elites archive (archive_file.hpp), saved with the
 ///                                 state that holds it, before checkpoint.json
+///     archive_progress.csv        IT&E building its archive: coverage per MAP-Elites generation
 ///     .lock                       flock()ed by the process writing the directory
 
 #include <chrono>
