@@ -311,7 +311,8 @@ void RunDirectory::append_row(const std::string& row) {
 void RunDirectory::record_archive_progress(const algo::Status& status) {
   if (status.phase != "archive") return;
   const fs::path path = dir_ / "archive_progress.csv";
-  const bool fresh = !fs::exists(path);
+  // Also a file left empty by a crash before its header was written.
+  const bool fresh = !fs::exists(path) || fs::file_size(path) == 0;
   std::ofstream out(path, std::ios::app);
   if (fresh) out << "evaluations,seconds,coverage,best_fitness,utc\n";
   const double seconds =

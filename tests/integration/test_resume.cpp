@@ -23,6 +23,7 @@ namespace fs = std::filesystem;
 using drops::cli_test::episodes_without_timing;
 using drops::cli_test::fresh_dir;
 using drops::cli_test::read_file;
+using drops::cli_test::read_json;
 using drops::cli_test::run_drops;
 using drops::cli_test::spawn_drops;
 
@@ -45,7 +46,6 @@ std::vector<std::string> archive_progress_rows(const fs::path& run_dir) {
   }
   return rows;
 }
-
 
 // Small budgets: a 4-episode run takes about a second, so the test stays fast while every part of
 // Algorithm 1 (prior-only episode, GP-MI learning, warm starts, policy search) is exercised.
@@ -240,7 +240,7 @@ TEST(Resume, IteKilledWhileBuildingItsArchiveContinuesToTheSameArchiveAndTrials)
     last_coverage = coverage;
   }
   EXPECT_EQ(last_evaluations, 60000);
-  const auto summary = nlohmann::json::parse(read_file(out / "full" / "summary.json"));
+  const auto summary = read_json(out / "full" / "summary.json");
   EXPECT_NEAR(last_coverage, summary["archive"]["coverage"].get<double>(), 1e-9);
   EXPECT_EQ(archive_progress_rows(out / "part"), full);
   fs::remove_all(out);
