@@ -11,6 +11,7 @@
 #include <numbers>
 #include <vector>
 
+#include "drops/core/parallel.hpp"
 #include "drops/core/rng.hpp"
 #include "drops/gp/gp.hpp"
 #include "drops/pilco/propagate.hpp"
@@ -109,17 +110,22 @@ const Pendubot& Problem() {
 
 void BM_PilcoStep(benchmark::State& state) {
   const Pendubot& p = Problem();
+  const drops::ThreadLimit limit(static_cast<int>(state.range(1)));
   const auto which = static_cast<pilco::StepDerivatives>(state.range(0));
   for (auto _ : state) {
     benchmark::DoNotOptimize(
         pilco::propagate(p.config, p.model, p.policy, p.mid_mean, p.mid_cov, which));
   }
 }
-// 0: moments only, 1: + state derivatives, 2: + policy derivatives.
-BENCHMARK(BM_PilcoStep)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+// First argument 0: moments only, 1: + state derivatives, 2: + policy derivatives; second: threads.
+BENCHMARK(BM_PilcoStep)
+    ->ArgsProduct({{0, 1, 2}, {1, 2}})
+    ->ArgNames({"derivatives", "threads"})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_PilcoGpMoments(benchmark::State& state) {
   const Pendubot& p = Problem();
+  const drops::ThreadLimit limit(static_cast<int>(state.range(1)));
   const pilco::StepMoments s = pilco::propagate(p.config, p.model, p.policy, p.mid_mean, p.mid_cov);
   const std::vector<int> in = {0, 1, 4, 5, 6, 7, 9};  // GP input in the step's joint
   VectorXd m(7);
@@ -130,18 +136,34 @@ void BM_PilcoGpMoments(benchmark::State& state) {
   }
   for (auto _ : state) benchmark::DoNotOptimize(pilco::se_moments(p.model, m, S, state.range(0)));
 }
-BENCHMARK(BM_PilcoGpMoments)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PilcoGpMoments)
+    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->ArgNames({"derivatives", "threads"})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_PilcoObjective(benchmark::State& state) {
   const Pendubot& p = Problem();
+  const drops::ThreadLimit limit(static_cast<int>(state.range(1)));
   const pilco::ExpectedCost J(p.config, p.model, p.policy, p.cost, p.m0, p.S0, 50);
   const VectorXd theta = p.policy.params();
   VectorXd g;
   for (auto _ : state) benchmark::DoNotOptimize(J(theta, state.range(0) ? &g : nullptr));
 }
-// 0: J(theta) over H = 50, 1: J and dJ/dtheta.
-BENCHMARK(BM_PilcoObjective)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+// 0: J(theta) over H = 50, 1: J and dJ/dtheta; second argument: threads.
+BENCHMARK(BM_PilcoObjective)
+    ->ArgsProduct({{0, 1}, {1, 2}})
+    ->ArgNames({"gradient", "threads"})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// As in the drops command line: OpenBLAS runs each call on the calling thread (drops parallelises
+// with TBB), else OpenBLAS's own threads compete with TBB's workers.
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  drops::use_single_threaded_blas();
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "drops/core/errors.hpp"
+#include "drops/core/parallel.hpp"
 #include "drops/core/rng.hpp"
 #include "drops/gp/gp.hpp"
 #include "drops/pilco/se_model.hpp"
@@ -275,6 +276,39 @@ TEST(PilcoGpMoments, InputDerivativesWithPriorMatchFiniteDifferences) {
       "GP + prior mean",
       [&](const VectorXd& m, const MatrixXd& S, bool d) { return se_moments(model, m, S, d); }, mu,
       sigma, kFdStep, kFdTol);
+}
+
+// se_moments runs the output pairs (and the outputs of the first moments) in parallel; each pair
+// sums its block pairs in the serial order, so every field is the same bits with 1 and 2 threads.
+// A model with two blocks per output (prior mean + residual) and E = 3 outputs (6 pairs) exercises
+// the grouping; the derivatives are compared too.
+TEST(PilcoGpMoments, SameBitsWithOneAndTwoThreads) {
+  Rng rng(17);
+  const int D = 3, E = 3;
+  const std::vector<Gp> prior = RandomGps(rng, D, E, 50, 0.8, 1.5);
+  const std::vector<Gp> residual = RandomGps(rng, D, E, 30, 0.2, 0.5);
+  const SeModel model = drops::pilco::gp_model_with_prior_mean(prior, residual);
+  const VectorXd mu = RandomVector(rng, D, -1.0, 1.0);
+  const MatrixXd sigma = RandomCovariance(rng, D, 0.3, 0.8);
+  auto run = [&](int threads) {
+    const drops::ThreadLimit limit(threads);
+    return se_moments(model, mu, sigma, true);
+  };
+  const Moments one = run(1);
+  for (int repeat = 0; repeat < 5; ++repeat) {
+    const Moments two = run(2);
+    EXPECT_EQ(one.mean, two.mean);
+    EXPECT_EQ(one.cov, two.cov);
+    EXPECT_EQ(one.cross, two.cross);
+    EXPECT_EQ(one.dmean_dmu, two.dmean_dmu);
+    EXPECT_EQ(one.dmean_dsigma, two.dmean_dsigma);
+    EXPECT_EQ(one.dcov_dmu, two.dcov_dmu);
+    EXPECT_EQ(one.dcov_dsigma, two.dcov_dsigma);
+    EXPECT_EQ(one.dcross_dmu, two.dcross_dmu);
+    EXPECT_EQ(one.dcross_dsigma, two.dcross_dsigma);
+  }
+  // The compared fields are not trivially equal: the outputs' covariances are non-zero.
+  EXPECT_GT(one.cov.cwiseAbs().minCoeff(), 0.0);
 }
 
 TEST(PilcoGpMoments, DerivativesAtSingularSigma) {

@@ -8,9 +8,12 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "detail.hpp"
 #include "drops/core/errors.hpp"
+#include "drops/core/parallel.hpp"
 
 namespace drops::pilco {
 
@@ -109,9 +112,9 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
       A.logk.array() - 0.25 * f.logdet + 0.5 * (A.y.array() * AT.array()).rowwise().sum();
   const VectorXd lB =
       B.logk.array() - 0.25 * f.logdet + 0.5 * (B.y.array() * BT.array()).rowwise().sum();
-  // Q and W are n x n (250 x 250 for the swing-up of paper §V-A): per-thread buffers reused across pairs and
-  // calls, since allocating them for every pair (and faulting their pages in) cost more than the
-  // arithmetic.
+  // Q and W are n x n (250 x 250 for the swing-up of paper §V-A): per-thread buffers reused across
+  // pairs and calls, since allocating them for every pair (and faulting their pages in) cost more
+  // than the arithmetic.
   thread_local MatrixXd Q, W;
   Q.resize(nA, nB);
   Q.noalias() = AT * B.y.transpose();
@@ -319,8 +322,9 @@ SeBlock fitc_block(const MatrixXd& X, const VectorXd& y, const MatrixXd& Z,
     if (L.info() == Eigen::Success) break;
     j = j > 0 ? 10 * j : 1e-10;
     if (j > 1e-2)
-      throw NumericalError("fitc_block: K(Z, Z) is not positive definite even with a jitter of "
-                           "1e-2 sigma_f^2 (repeated inducing inputs?)");
+      throw NumericalError(
+          "fitc_block: K(Z, Z) is not positive definite even with a jitter of "
+          "1e-2 sigma_f^2 (repeated inducing inputs?)");
   }
   // V = L^-1 Kmn; Q_ii = |V_:i|^2; Lambda = diag(sigma_f^2 - Q_ii) + sigma_n^2 (>= sigma_n^2).
   MatrixXd V = se_cross(Z, X, length_scales, signal_variance);
@@ -334,13 +338,14 @@ SeBlock fitc_block(const MatrixXd& X, const VectorXd& y, const MatrixXd& Z,
   Eigen::LLT<MatrixXd> LA(A);
   if (LA.info() != Eigen::Success)
     throw NumericalError("fitc_block: I + V Lambda^-1 V^T is not positive definite");
-  // w = Sigma_m Kmn Lambda^-1 y = L^-T A^-1 Vl (y ./ sqrt(lam)); Kmm^-1 - Sigma_m = L^-T (I - A^-1) L^-1.
+  // w = Sigma_m Kmn Lambda^-1 y = L^-T A^-1 Vl (y ./ sqrt(lam)); Kmm^-1 - Sigma_m = L^-T (I - A^-1)
+  // L^-1.
   VectorXd w = LA.solve(Vl * y.cwiseProduct(isl));
   L.matrixU().solveInPlace(w);
   MatrixXd W = MatrixXd::Identity(M, M) - LA.solve(MatrixXd::Identity(M, M));
-  L.matrixU().solveInPlace(W);                                  // L^-T (I - A^-1)
-  W.transposeInPlace();                                         // (I - A^-1) L^-1
-  L.matrixU().solveInPlace(W);                                  // L^-T (I - A^-1) L^-1
+  L.matrixU().solveInPlace(W);  // L^-T (I - A^-1)
+  W.transposeInPlace();         // (I - A^-1) L^-1
+  L.matrixU().solveInPlace(W);  // L^-T (I - A^-1) L^-1
   SeBlock b;
   b.centres = Z;
   b.weights = std::move(w);
@@ -416,82 +421,110 @@ Moments detail::se_moments_impl(const SeModel& model, const VectorXd& mu, const 
     }
   }
 
-  // First moments and cross-covariances, block by block.
-  for (const BlockState& st : blocks) {
-    const Index n = st.nu.rows();
-    if (n == 0) continue;
-    const SeBlock& blk = *st.block;
-    const Index a = st.output;
-    const VectorXd sq = st.lam.array().sqrt();
-    const ScaledFactor f = factor_scaled(sigma, sq);
-    const MatrixXd P = sq.asDiagonal() * f.inv * sq.asDiagonal();  // (Sigma + Lambda)^-1
-    const MatrixXd s = st.nu * P;                                  // rows P nu_i
-    const VectorXd q = (std::log(blk.signal_variance) - 0.5 * f.logdet -
-                        0.5 * (s.array() * st.nu.array()).rowwise().sum())
-                           .exp()
-                           .matrix();
-    const VectorXd wq = blk.weights.cwiseProduct(q);
-    const double M = wq.sum();
-    const VectorXd V = s.transpose() * wq;
-    out.mean[a] += M;
-    out.cross.col(a) += V;
+  // The blocks of each output (their flat indices, in order): the unit of parallel work below, as
+  // blocks of one output add into the same rows of `out`, blocks of different outputs into disjoint
+  // ones (and each block into its own parameter gradient).
+  std::vector<std::vector<int>> by_output(static_cast<std::size_t>(E));
+  for (const BlockState& st : blocks) by_output[st.output].push_back(st.index);
 
-    // dM/dSigma = 1/2 sum_i w_i q_i (s_i s_i^T - P); dV/dmu = 2 dM/dSigma.
-    MatrixXd G = s.transpose() * wq.asDiagonal() * s - M * P;
-    G *= 0.5;
-    if (input_derivatives) {
-      out.dmean_dmu.row(a) += V.transpose();
-      out.dmean_dsigma.row(a) += detail::as_row(G);
-      out.dcross_dmu.middleRows(D * a, D) += 2.0 * G;
-      // dV_r/dSigma_kl = 1/2 sum_i w_i q_i s_ir s_ik s_il - 1/2 V_r P_kl - 1/2 (P_rk V_l + P_rl
-      // V_k)
-      for (Index r = 0; r < D; ++r) {
-        MatrixXd H = s.transpose() * (wq.cwiseProduct(s.col(r))).asDiagonal() * s - V[r] * P -
-                     P.col(r) * V.transpose() - V * P.row(r);
-        H *= 0.5;
-        out.dcross_dsigma.row(r + D * a) += detail::as_row(H);
+  // First moments and cross-covariances: outputs in parallel, the blocks of an output in order.
+  parallel_for(static_cast<std::size_t>(E), [&](std::size_t output) {
+    for (const int index : by_output[output]) {
+      const BlockState& st = blocks[index];
+      const Index n = st.nu.rows();
+      if (n == 0) continue;
+      const SeBlock& blk = *st.block;
+      const Index a = st.output;
+      const VectorXd sq = st.lam.array().sqrt();
+      const ScaledFactor f = factor_scaled(sigma, sq);
+      const MatrixXd P = sq.asDiagonal() * f.inv * sq.asDiagonal();  // (Sigma + Lambda)^-1
+      const MatrixXd s = st.nu * P;                                  // rows P nu_i
+      const VectorXd q = (std::log(blk.signal_variance) - 0.5 * f.logdet -
+                          0.5 * (s.array() * st.nu.array()).rowwise().sum())
+                             .exp()
+                             .matrix();
+      const VectorXd wq = blk.weights.cwiseProduct(q);
+      const double M = wq.sum();
+      const VectorXd V = s.transpose() * wq;
+      out.mean[a] += M;
+      out.cross.col(a) += V;
+
+      // dM/dSigma = 1/2 sum_i w_i q_i (s_i s_i^T - P); dV/dmu = 2 dM/dSigma.
+      MatrixXd G = s.transpose() * wq.asDiagonal() * s - M * P;
+      G *= 0.5;
+      if (input_derivatives) {
+        out.dmean_dmu.row(a) += V.transpose();
+        out.dmean_dsigma.row(a) += detail::as_row(G);
+        out.dcross_dmu.middleRows(D * a, D) += 2.0 * G;
+        // dV_r/dSigma_kl = 1/2 sum_i w_i q_i s_ir s_ik s_il - 1/2 V_r P_kl - 1/2 (P_rk V_l + P_rl
+        // V_k)
+        for (Index r = 0; r < D; ++r) {
+          MatrixXd H = s.transpose() * (wq.cwiseProduct(s.col(r))).asDiagonal() * s - V[r] * P -
+                       P.col(r) * V.transpose() - V * P.row(r);
+          H *= 0.5;
+          out.dcross_dsigma.row(r + D * a) += detail::as_row(H);
+        }
+      }
+      if (params != nullptr) {
+        detail::BlockParamGradient& g = (*params)[st.index];
+        const VectorXd Lam = blk.length_scales.array().square();
+        // Mean: dM/dw = q, dM/dc_i = -w_i q_i s_i, dM/dlog l_d = sum_i w_i q_i (1 - L_d P_dd + L_d
+        // s_id^2).
+        g.d_weights.row(a) = q.transpose();
+        const MatrixXd dX = -(s.array().colwise() * wq.array()).matrix();
+        g.d_centres.row(a) = detail::as_row(dX);
+        VectorXd dl(D);
+        for (Index d = 0; d < D; ++d) {
+          dl[d] =
+              (wq.array() * (1.0 - Lam[d] * P(d, d) + Lam[d] * s.col(d).array().square())).sum();
+        }
+        g.d_log_length_scales.row(a) = dl.transpose();
+        // Cross: dV/dw_i = q_i s_i, dV_r/dc_id = w_i q_i (P_rd - s_ir s_id),
+        // dV/dLambda_dd = 1/2 sum_i w_i q_i s_id^2 s_i - 1/2 (P_dd - 1/Lambda_dd) V - P_:d V_d.
+        MatrixXd dVl(D, D);  // column d: dV/dlog l_d
+        for (Index d = 0; d < D; ++d) {
+          const VectorXd t = s.transpose() * wq.cwiseProduct(s.col(d).cwiseAbs2());
+          dVl.col(d) = 2.0 * Lam[d] * (0.5 * t - 0.5 * (P(d, d) - st.lam[d]) * V - P.col(d) * V[d]);
+        }
+        for (Index r = 0; r < D; ++r) {
+          const Index row = E + E * E + r + D * a;
+          g.d_weights.row(row) = q.cwiseProduct(s.col(r)).transpose();
+          const MatrixXd dXr =
+              wq * P.row(r) - (s.array().colwise() * wq.cwiseProduct(s.col(r)).array()).matrix();
+          g.d_centres.row(row) = detail::as_row(dXr);
+          g.d_log_length_scales.row(row) = dVl.row(r);
+        }
       }
     }
-    if (params != nullptr) {
-      detail::BlockParamGradient& g = (*params)[st.index];
-      const VectorXd Lam = blk.length_scales.array().square();
-      // Mean: dM/dw = q, dM/dc_i = -w_i q_i s_i, dM/dlog l_d = sum_i w_i q_i (1 - L_d P_dd + L_d
-      // s_id^2).
-      g.d_weights.row(a) = q.transpose();
-      const MatrixXd dX = -(s.array().colwise() * wq.array()).matrix();
-      g.d_centres.row(a) = detail::as_row(dX);
-      VectorXd dl(D);
-      for (Index d = 0; d < D; ++d) {
-        dl[d] = (wq.array() * (1.0 - Lam[d] * P(d, d) + Lam[d] * s.col(d).array().square())).sum();
-      }
-      g.d_log_length_scales.row(a) = dl.transpose();
-      // Cross: dV/dw_i = q_i s_i, dV_r/dc_id = w_i q_i (P_rd - s_ir s_id),
-      // dV/dLambda_dd = 1/2 sum_i w_i q_i s_id^2 s_i - 1/2 (P_dd - 1/Lambda_dd) V - P_:d V_d.
-      MatrixXd dVl(D, D);  // column d: dV/dlog l_d
-      for (Index d = 0; d < D; ++d) {
-        const VectorXd t = s.transpose() * wq.cwiseProduct(s.col(d).cwiseAbs2());
-        dVl.col(d) = 2.0 * Lam[d] * (0.5 * t - 0.5 * (P(d, d) - st.lam[d]) * V - P.col(d) * V[d]);
-      }
-      for (Index r = 0; r < D; ++r) {
-        const Index row = E + E * E + r + D * a;
-        g.d_weights.row(row) = q.cwiseProduct(s.col(r)).transpose();
-        const MatrixXd dXr =
-            wq * P.row(r) - (s.array().colwise() * wq.cwiseProduct(s.col(r)).array()).matrix();
-        g.d_centres.row(row) = detail::as_row(dXr);
-        g.d_log_length_scales.row(row) = dVl.row(r);
-      }
-    }
-  }
+  });
 
-  // Second moments: every pair of blocks of outputs a <= b.
+  // Second moments: every pair of blocks of outputs a <= b. The pairs of one output pair (a, b) add
+  // into the same entries (S_ab, its derivative rows, rows E + a + E b of the blocks' parameter
+  // gradients), those of different output pairs into disjoint ones: output pairs run in parallel,
+  // the block pairs of each in the order of the serial loop, so the sums are the same bits for any
+  // thread count (the E(E+1)/2 = 10 pairs of the pendubot's GP dominate a PILCO step).
+  std::vector<std::vector<std::pair<int, int>>> pairs;
+  std::vector<int> pair_of(static_cast<std::size_t>(E * E), -1);
   for (const BlockState& A : blocks) {
     for (const BlockState& B : blocks) {
       if (B.output < A.output) continue;
       if (B.output == A.output && B.index < A.index) continue;
+      int& k = pair_of[static_cast<std::size_t>(A.output + E * B.output)];
+      if (k < 0) {
+        k = static_cast<int>(pairs.size());
+        pairs.emplace_back();
+      }
+      pairs[static_cast<std::size_t>(k)].emplace_back(A.index, B.index);
+    }
+  }
+  parallel_for(pairs.size(), [&](std::size_t k) {
+    for (const auto& [ia, ib] : pairs[k]) {
+      const BlockState& A = blocks[static_cast<std::size_t>(ia)];
+      const BlockState& B = blocks[static_cast<std::size_t>(ib)];
       const double mult = (A.output == B.output && A.index != B.index) ? 2.0 : 1.0;
       add_pair(A, B, mult, sigma, E, input_derivatives, out, params);
     }
-  }
+  });
 
   // - M_a M_b and its derivatives.
   for (Index a = 0; a < E; ++a) {

@@ -99,9 +99,11 @@ Eigen::VectorXd block_values(const SeBlock& block, const Eigen::MatrixXd& X);
 ///   Q_AA)).
 /// Sigma only has to be positive semi-definite (Sigma = 0 gives the ordinary GP posterior).
 /// Cost O(E^2 n^2 D) (and E(E+1)/2 n^2 exponentials) for the moments, the same order (larger
-/// constant) for the derivatives; about 4 ms (moments) and 5 ms (with derivatives) for E = 4,
-/// n = 250, D = 7 (bench/bench_pilco.cpp). Keeps two n x n scratch matrices per thread (largest
-/// block pair seen), reused by later calls.
+/// constant) for the derivatives; about 4.4 ms (moments) and 5.2 ms (with derivatives) on one
+/// thread, 2.2 and 2.8 ms on two, for E = 4, n = 250, D = 7 (bench/bench_pilco.cpp). The output
+/// pairs (and the outputs of the first moments) run in parallel through drops::parallel_for, each
+/// summed in a fixed order: the same bits for any thread count. Keeps two n x n scratch matrices
+/// per thread (largest block pair seen), reused by later calls.
 /// Throws InvalidArgument on sizes (mu: D, Sigma: D x D, finite and symmetric to 1e-9 relative) or
 /// an invalid model; NumericalError if Sigma is so indefinite that I + Lambda^-1/2 Sigma
 /// Lambda^-1/2 is not positive definite. Thread-safe (pure function).
