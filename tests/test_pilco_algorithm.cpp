@@ -45,6 +45,7 @@ struct Recorded {
   std::vector<EpisodeRecord> episodes;
   std::vector<RunState> states;
   std::vector<PhaseRecord> phases;
+  std::vector<drops::algo::Status> simulated;  // the "simulation episode" statuses
   drops::algo::RunSummary summary;
 };
 
@@ -55,6 +56,9 @@ Recorded RunPilco(const PilcoOptions& o, const drops::rollout::System& real,
   cb.on_episode = [&](const EpisodeRecord& e) { r.episodes.push_back(e); };
   cb.on_state = [&](const RunState& s) { r.states.push_back(s); };
   cb.on_phase = [&](const PhaseRecord& p) { r.phases.push_back(p); };
+  cb.on_status = [&](const drops::algo::Status& s) {
+    if (s.phase == "simulation episode") r.simulated.push_back(s);
+  };
   auto prior = std::make_shared<PendulumPrior>();
   drops::model::PriorParameters pp;
   pp.names = {"m", "l"};
@@ -198,6 +202,14 @@ TEST(PilcoWithPriors, TheFirstRealEpisodeRunsTheSimulationPolicyAndItsPrediction
   EXPECT_EQ(e2.selected, "lbfgs");
   EXPECT_EQ(e2.model.points, 40);
   EXPECT_EQ(r.states.back().extra.count("prior.0.centres"), 1u);
+  // Each simulated episode was reported as it ended (the command line prints a line per episode),
+  // with the return the phase record keeps.
+  ASSERT_EQ(r.simulated.size(), sim.episodes.size());
+  for (std::size_t k = 0; k < r.simulated.size(); ++k) {
+    EXPECT_EQ(r.simulated[k].episode, static_cast<int>(k) + 1);
+    EXPECT_EQ(r.simulated[k].budget, 3);
+    EXPECT_EQ(r.simulated[k].best, sim.episodes[k].numbers.at("return"));
+  }
 }
 
 TEST(PilcoWithPriors, ResumesAfterTheSimulationPhaseAndAfterAnEpisodeIdentically) {

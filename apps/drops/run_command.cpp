@@ -96,6 +96,14 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   cb.on_status = [&](const algo::Status& s) {
     dir->record_archive_progress(s);  // IT&E's archive: coverage against evaluations and time
     const auto now = std::chrono::steady_clock::now();
+    if (s.phase == "simulation episode") {  // PILCO with priors: one line per simulated episode
+      if (live) std::cerr << "\r\033[K";
+      if (!quiet)
+        std::cerr << fmt::format("simulation episode {:>2}/{}  return {:6.2f}  {} evals  [{}]\n",
+                                 s.episode, s.budget, s.best, s.evaluations,
+                                 experiment::now_iso());
+      return;
+    }
     if (s.phase == "archive" && !live && !quiet) {
       // Without a terminal (a campaign's log), a line a minute while an archive is built.
       if (now - last_line < std::chrono::seconds(60)) return;

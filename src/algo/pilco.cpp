@@ -735,6 +735,11 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
       d.numbers["model_learning_s"] = plan.model_seconds;
       d.numbers["policy_optimization_s"] = plan.policy_seconds;
       phase.episodes.push_back(std::move(d));
+      if (callbacks.on_status) {
+        Status done{e, "simulation episode", plan.evaluations, tr.total_return()};
+        done.budget = o.sim_episodes;
+        callbacks.on_status(done);
+      }
       last = std::move(plan);
     }
     // The GPs that chose the last policy become the prior mean; that policy, theta_sim, is run

@@ -120,7 +120,11 @@ struct RunState {
 /// Live status for progress displays.
 struct Status {
   int episode = 0;                  ///< episode being prepared (1-based)
-  std::string phase;                ///< "model", "policy", "archive" (MAP-Elites) or "episode"
+  /// "model", "policy", "archive" (MAP-Elites), "episode", "simulation" (PILCO with priors' policy
+  /// search on the simulator) or "simulation episode" (once per simulated episode when it ends:
+  /// `episode` is its number, `best` its return, `evaluations` its policy search's, `budget` the
+  /// phase's episode count).
+  std::string phase;
   long evaluations = 0;             ///< evaluations in this phase so far
   /// Best score in this phase (model score / predicted return / best fitness in the archive).
   double best = 0;
