@@ -502,7 +502,7 @@ Moments detail::se_moments_impl(const SeModel& model, const VectorXd& mu, const 
   // into the same entries (S_ab, its derivative rows, rows E + a + E b of the blocks' parameter
   // gradients), those of different output pairs into disjoint ones: output pairs run in parallel,
   // the block pairs of each in the order of the serial loop, so the sums are the same bits for any
-  // thread count (the E(E+1)/2 = 10 pairs of the pendubot's GP dominate a PILCO step).
+  // thread count (with E = 4 outputs, the 10 pairs dominate a PILCO step).
   std::vector<std::vector<std::pair<int, int>>> pairs;
   std::vector<int> pair_of(static_cast<std::size_t>(E * E), -1);
   for (const BlockState& A : blocks) {
