@@ -14,6 +14,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "drops/core/errors.hpp"
@@ -118,6 +119,27 @@ Problem GpProblem() {
   return p;
 }
 
+// A model of PILCO with priors: E "simulator" GPs on n_prior points as prior mean, E residual GPs
+// on n_residual points, and an input Gaussian, drawn in that order from Rng(seed), D = 3.
+struct PriorProblem {
+  std::vector<Gp> prior, residual;
+  SeModel model;
+  VectorXd mu;
+  MatrixXd sigma;
+};
+
+PriorProblem MakePriorProblem(std::uint64_t seed, int E, int n_prior, int n_residual) {
+  Rng rng(seed);
+  const int D = 3;
+  PriorProblem p;
+  p.prior = RandomGps(rng, D, E, n_prior, 0.8, 1.5);
+  p.residual = RandomGps(rng, D, E, n_residual, 0.2, 0.5);
+  p.model = drops::pilco::gp_model_with_prior_mean(p.prior, p.residual);
+  p.mu = RandomVector(rng, D, -1.0, 1.0);
+  p.sigma = RandomCovariance(rng, D, 0.3, 0.8);
+  return p;
+}
+
 TEST(PilcoGpMoments, MatchMonteCarloWithCorrelatedInput) {
   const Problem p = GpProblem();
   const Moments m = se_moments(drops::pilco::gp_model(p.gps), p.mu, p.sigma);
@@ -143,13 +165,12 @@ TEST(PilcoGpMoments, MatchMonteCarloWithCorrelatedInput) {
 }
 
 TEST(PilcoGpMoments, WithRbfPriorMeanMatchMonteCarlo) {
-  Rng rng(12);
-  const int D = 3, E = 2;
-  const std::vector<Gp> prior = RandomGps(rng, D, E, 60, 0.8, 1.5);     // "simulator" GPs
-  const std::vector<Gp> residual = RandomGps(rng, D, E, 25, 0.2, 0.5);  // residual GPs
-  const VectorXd mu = RandomVector(rng, D, -1.0, 1.0);
-  const MatrixXd sigma = RandomCovariance(rng, D, 0.3, 0.8);
-  const SeModel model = drops::pilco::gp_model_with_prior_mean(prior, residual);
+  const PriorProblem p = MakePriorProblem(12, 2, 60, 25);
+  const std::vector<Gp>& prior = p.prior;
+  const std::vector<Gp>& residual = p.residual;
+  const VectorXd& mu = p.mu;
+  const MatrixXd& sigma = p.sigma;
+  const SeModel& model = p.model;
   ASSERT_EQ(model.outputs[0].blocks.size(), 2u);
   const Moments m = se_moments(model, mu, sigma);
   const McMoments mc = MonteCarlo({{&prior[0], &residual[0]}, {&prior[1], &residual[1]}},
@@ -265,17 +286,11 @@ TEST(PilcoGpMoments, InputDerivativesMatchFiniteDifferences) {
 }
 
 TEST(PilcoGpMoments, InputDerivativesWithPriorMatchFiniteDifferences) {
-  Rng rng(15);
-  const int D = 3, E = 2;
-  const std::vector<Gp> prior = RandomGps(rng, D, E, 30, 0.8, 1.5);
-  const std::vector<Gp> residual = RandomGps(rng, D, E, 15, 0.2, 0.5);
-  const SeModel model = drops::pilco::gp_model_with_prior_mean(prior, residual);
-  const VectorXd mu = RandomVector(rng, D, -1.0, 1.0);
-  const MatrixXd sigma = RandomCovariance(rng, D, 0.3, 0.8);
+  const PriorProblem p = MakePriorProblem(15, 2, 30, 15);
   CheckInputDerivatives(
       "GP + prior mean",
-      [&](const VectorXd& m, const MatrixXd& S, bool d) { return se_moments(model, m, S, d); }, mu,
-      sigma, kFdStep, kFdTol);
+      [&](const VectorXd& m, const MatrixXd& S, bool d) { return se_moments(p.model, m, S, d); },
+      p.mu, p.sigma, kFdStep, kFdTol);
 }
 
 // se_moments runs the output pairs (and the outputs of the first moments) in parallel; each pair
@@ -283,16 +298,10 @@ TEST(PilcoGpMoments, InputDerivativesWithPriorMatchFiniteDifferences) {
 // A model with two blocks per output (prior mean + residual) and E = 3 outputs (6 pairs) exercises
 // the grouping; the derivatives are compared too.
 TEST(PilcoGpMoments, SameBitsWithOneAndTwoThreads) {
-  Rng rng(17);
-  const int D = 3, E = 3;
-  const std::vector<Gp> prior = RandomGps(rng, D, E, 50, 0.8, 1.5);
-  const std::vector<Gp> residual = RandomGps(rng, D, E, 30, 0.2, 0.5);
-  const SeModel model = drops::pilco::gp_model_with_prior_mean(prior, residual);
-  const VectorXd mu = RandomVector(rng, D, -1.0, 1.0);
-  const MatrixXd sigma = RandomCovariance(rng, D, 0.3, 0.8);
+  const PriorProblem p = MakePriorProblem(17, 3, 50, 30);
   auto run = [&](int threads) {
     const drops::ThreadLimit limit(threads);
-    return se_moments(model, mu, sigma, true);
+    return se_moments(p.model, p.mu, p.sigma, true);
   };
   const Moments one = run(1);
   for (int repeat = 0; repeat < 5; ++repeat) {
