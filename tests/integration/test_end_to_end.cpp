@@ -150,9 +150,13 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
       if (runs.front().settings.at("task") == "hexapod") extra = " hexapod.horizon=20";
       // IT&E: a small archive, and the archive cache (a path relative to where the campaign runs)
       // under the test's directory.
-      if (runs.front().settings.at("algorithm") == "ite")
+      const std::string& algorithm = runs.front().settings.at("algorithm");
+      if (algorithm == "ite")
         extra += " ite.evaluations=400 ite.batch=100 ite.initial_population=100"
                  " ite.archive_cache=" + (out / "ite-archives").string();
+      // PILCO: a small policy, few L-BFGS evaluations and (with priors) 2 simulated episodes.
+      if (algorithm == "pilco" || algorithm == "pilco_prior")
+        extra += " pilco.centres=20 pilco.policy_evaluations=20 pilco.sim_episodes=2";
     } else {
       ++experiments;
     }
