@@ -30,6 +30,33 @@ VectorXd Features(const VectorXd& x) {
   return f;
 }
 
+// E = 4 SE-ARD GPs on N random pendubot-like transitions (input: 6 state features + u).
+std::vector<drops::gp::Gp> PendubotGps(int N, drops::Rng& rng) {
+  MatrixXd X(N, 7), Y(N, 4);
+  for (int i = 0; i < N; ++i) {
+    VectorXd x(4);
+    x << 3 * rng.normal(), 3 * rng.normal(), rng.uniform(-kPi, kPi), rng.uniform(-kPi, kPi);
+    const double u = rng.uniform(-3.5, 3.5);
+    X.row(i) << Features(x).transpose(), u;
+    Y(i, 0) = 0.05 * (u - 9.8 * std::sin(x[2])) + 0.01 * rng.normal();
+    Y(i, 1) = 0.05 * (-9.8 * std::sin(x[3]) + 0.1 * x[0] * x[1]) + 0.01 * rng.normal();
+    Y(i, 2) = 0.05 * x[0] + 0.01 * rng.normal();
+    Y(i, 3) = 0.05 * x[1] + 0.01 * rng.normal();
+  }
+  std::vector<drops::gp::Gp> gps;
+  for (int a = 0; a < 4; ++a) {
+    drops::gp::Gp gp(7);
+    VectorXd h(9);
+    for (int d = 0; d < 7; ++d) h[d] = std::log(rng.uniform(1.0, 4.0));
+    h[7] = std::log(0.5);
+    h[8] = std::log(0.01);
+    gp.set_h_params(h);
+    gp.compute(X, Y.col(a));
+    gps.push_back(std::move(gp));
+  }
+  return gps;
+}
+
 struct Pendubot {
   pilco::PropagationConfig config;
   pilco::SeModel model;
@@ -47,30 +74,7 @@ struct Pendubot {
     config.policy_inputs = {0, 1, 4, 5, 6, 7};
     config.dynamics_inputs = {0, 1, 4, 5, 6, 7};
     config.max_u = VectorXd::Constant(1, 3.5);
-    const int N = 250;
-    MatrixXd X(N, 7), Y(N, 4);
-    for (int i = 0; i < N; ++i) {
-      VectorXd x(4);
-      x << 3 * rng.normal(), 3 * rng.normal(), rng.uniform(-kPi, kPi), rng.uniform(-kPi, kPi);
-      const double u = rng.uniform(-3.5, 3.5);
-      X.row(i) << Features(x).transpose(), u;
-      Y(i, 0) = 0.05 * (u - 9.8 * std::sin(x[2])) + 0.01 * rng.normal();
-      Y(i, 1) = 0.05 * (-9.8 * std::sin(x[3]) + 0.1 * x[0] * x[1]) + 0.01 * rng.normal();
-      Y(i, 2) = 0.05 * x[0] + 0.01 * rng.normal();
-      Y(i, 3) = 0.05 * x[1] + 0.01 * rng.normal();
-    }
-    std::vector<drops::gp::Gp> gps;
-    for (int a = 0; a < 4; ++a) {
-      drops::gp::Gp gp(7);
-      VectorXd h(9);
-      for (int d = 0; d < 7; ++d) h[d] = std::log(rng.uniform(1.0, 4.0));
-      h[7] = std::log(0.5);
-      h[8] = std::log(0.01);
-      gp.set_h_params(h);
-      gp.compute(X, Y.col(a));
-      gps.push_back(std::move(gp));
-    }
-    model = pilco::gp_model(gps);
+    model = pilco::gp_model(PendubotGps(250, rng));
     // PILCO's initialisation (settings_pendubot.m): centres around the start, targets 0.1 randn.
     m0 = VectorXd(4);
     m0 << 0, 0, kPi, kPi;
@@ -153,6 +157,30 @@ void BM_PilcoObjective(benchmark::State& state) {
 BENCHMARK(BM_PilcoObjective)
     ->ArgsProduct({{0, 1}, {1, 2}})
     ->ArgNames({"gradient", "threads"})
+    ->Unit(benchmark::kMillisecond);
+
+// J(theta) and dJ/dtheta (H = 50) as the real data grow, as in a PILCO run (first argument 0: one
+// GP block per output on N points) and a PILCO-with-priors run (1: [the simulator GPs' mean on 300
+// points (the simulation phase's cap), a residual GP on N points] per output); 2 threads. N = 300
+// is the exact GP's cap (FITC with 300 inducing inputs costs the same beyond).
+void BM_PilcoObjectiveAsDataGrow(benchmark::State& state) {
+  const Pendubot& p = Problem();
+  const bool with_prior = state.range(0) != 0;
+  const int N = static_cast<int>(state.range(1));
+  const drops::ThreadLimit limit(2);
+  drops::Rng rng(2);
+  const std::vector<drops::gp::Gp> real = PendubotGps(N, rng);
+  const pilco::SeModel model =
+      with_prior ? pilco::gp_model_with_prior_mean(PendubotGps(300, rng), real)
+                 : pilco::gp_model(real);
+  const pilco::ExpectedCost J(p.config, model, p.policy, p.cost, p.m0, p.S0, 50);
+  const VectorXd theta = p.policy.params();
+  VectorXd g;
+  for (auto _ : state) benchmark::DoNotOptimize(J(theta, &g));
+}
+BENCHMARK(BM_PilcoObjectiveAsDataGrow)
+    ->ArgsProduct({{0, 1}, {50, 150, 300}})
+    ->ArgNames({"prior", "N"})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

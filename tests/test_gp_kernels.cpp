@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "drops/core/rng.hpp"
@@ -92,6 +93,67 @@ TEST(GpKernels, EverySupportedVariantMatchesBaselineAndIgnoresTheBatchSplit) {
           ASSERT_EQ(s[q], all_s[first + q]) << "first=" << first << " count=" << count << " q=" << q;
         }
       }
+  }
+}
+
+// pair_weights (PILCO's block-pair second moments) against a plain loop with std::exp, for every
+// supported variant: odd sizes that use packs of 8, 4, 2 and a lone row, with and without K^-1,
+// log Q from -800 (underflow to 0) through 0 to 720 (overflow to +inf).
+TEST(GpKernels, PairWeightsMatchAPlainLoopInEveryVariant) {
+  Rng rng(5);
+  for (const bool with_kinv : {false, true}) {
+    const int na = 15, nb = with_kinv ? na : 13;
+    MatrixXd g(na, nb), kinv(na, na);
+    VectorXd la(na), lb(nb), wa(na), wb(nb);
+    for (int i = 0; i < na; ++i)
+      for (int j = 0; j < nb; ++j) g(i, j) = rng.uniform(-30.0, 8.0);
+    for (int i = 0; i < na; ++i)
+      for (int j = 0; j < na; ++j) kinv(i, j) = rng.uniform(-1.0, 1.0);
+    for (int i = 0; i < na; ++i) la[i] = rng.uniform(-2.0, 2.0), wa[i] = rng.uniform(-1.0, 1.0);
+    for (int j = 0; j < nb; ++j) lb[j] = rng.uniform(-2.0, 2.0), wb[j] = rng.uniform(-1.0, 1.0);
+    g(1, 0) = -800.0;   // exp -> 0
+    g(14, 2) = -705.0;  // just inside the range
+    g(3, 4) = 0.0;
+    g(5, 6) = 700.0;    // large but finite
+    g(7, 7) = 720.0;    // exp -> +inf
+    const double mult = 2.0;
+    MatrixXd q_ref(na, nb), w_ref(na, nb);
+    for (int i = 0; i < na; ++i)
+      for (int j = 0; j < nb; ++j) {
+        const double x = g(i, j) + la[i] + lb[j];
+        q_ref(i, j) = x < -708.0 ? 0.0 : std::exp(x);
+        w_ref(i, j) = q_ref(i, j) * (wa[i] * mult) * wb[j] - (with_kinv ? kinv(i, j) * q_ref(i, j) : 0.0);
+      }
+    for (const Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kGeneric}) {
+      if (!drops::gp::kernels::supported(isa)) continue;
+      SCOPED_TRACE(std::string(drops::gp::kernels::isa_name(isa)) + (with_kinv ? " K^-1" : ""));
+      MatrixXd q = g, w(na, nb);  // q overwrites g, as in se_model.cpp
+      VectorXd r(na), c(nb);
+      drops::gp::kernels::PairArgs a{q.data(), la.data(), lb.data(), wa.data(), wb.data(),
+                                     mult, with_kinv ? kinv.data() : nullptr, na, nb,
+                                     q.data(), w.data(), r.data(), c.data()};
+      drops::gp::kernels::pair_weights(isa, a);
+      EXPECT_EQ(q(1, 0), 0.0);
+      EXPECT_TRUE(std::isinf(q(7, 7)) && q(7, 7) > 0);
+      for (int i = 0; i < na; ++i)
+        for (int j = 0; j < nb; ++j) {
+          if (i == 7 && j == 7) continue;
+          ASSERT_NEAR(q(i, j), q_ref(i, j), 1e-15 * q_ref(i, j)) << i << "," << j;
+          ASSERT_NEAR(w(i, j), w_ref(i, j), 1e-15 * (std::abs(w_ref(i, j)) + q_ref(i, j)))
+              << i << "," << j;
+        }
+      // The sums, on the finite part (column 7 and row 7 hold the +inf entry).
+      for (int i = 0; i < na; ++i) {
+        if (i == 7) continue;
+        const double ref = w_ref.row(i).sum();
+        EXPECT_NEAR(r[i], ref, 1e-14 * w_ref.row(i).cwiseAbs().sum()) << i;
+      }
+      for (int j = 0; j < nb; ++j) {
+        if (j == 7) continue;
+        const double ref = w_ref.col(j).sum();
+        EXPECT_NEAR(c[j], ref, 1e-14 * w_ref.col(j).cwiseAbs().sum()) << j;
+      }
+    }
   }
 }
 

@@ -42,4 +42,14 @@ void predict_block(Isa isa, const PredictArgs& args) {
 
 void predict_block(const PredictArgs& args) { predict_block(selected_isa(), args); }
 
+void pair_weights(Isa isa, const PairArgs& args) {
+  switch (isa) {
+    case Isa::kAvx512: pair_weights_avx512(args); return;
+    case Isa::kAvx2: pair_weights_avx2(args); return;
+    case Isa::kGeneric: pair_weights_generic(args); return;
+  }
+}
+
+void pair_weights(const PairArgs& args) { pair_weights(selected_isa(), args); }
+
 }  // namespace drops::gp::kernels

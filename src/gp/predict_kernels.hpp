@@ -1,5 +1,5 @@
 #pragma once
-// Hot kernel of Gp::predict_batch, kept free of Eigen types so that it can be compiled for several
+// Hot kernels of Gp::predict_batch and of PILCO's moment matching (pair_weights), kept free of Eigen types so that it can be compiled for several
 // instruction sets in one binary (src/gp/predict_kernels_*.cpp) while everything else, Eigen
 // included, is compiled for baseline x86-64 (16-byte Eigen alignment, the same as Debian's DART).
 // Internal header (not installed).
@@ -34,6 +34,32 @@ struct PredictArgs {
 /// or its position in it. Results of different Isa variants differ at round-off (FMA or not).
 void predict_block(const PredictArgs& args);
 
+/// Arguments of pair_weights (PILCO's second moments of two SE blocks, src/pilco/se_model.cpp).
+/// Column-major n_a x n_b matrices with leading dimension n_a.
+struct PairArgs {
+  const double* g;     ///< n_a x n_b: the bilinear part of log Q, a_i^T Lambda_B^-1 nu_j
+  const double* la;    ///< n_a: the row terms of log Q
+  const double* lb;    ///< n_b: the column terms of log Q
+  const double* wa;    ///< n_a: block A's weights
+  const double* wb;    ///< n_b: block B's weights
+  double mult;         ///< multiplicity of the pair (1 or 2)
+  const double* kinv;  ///< n_a x n_a: K^-1 when A is B with a variance term, else nullptr
+  std::ptrdiff_t na;   ///< >= 1
+  std::ptrdiff_t nb;   ///< >= 1
+  double* q;           ///< n_a x n_b out: Q_ij = exp(g_ij + la_i + lb_j) (may be g)
+  double* w;           ///< n_a x n_b out: W_ij = (mult wa_i) wb_j Q_ij [- kinv_ij Q_ij]
+  double* row_sums;    ///< n_a out: sum_j W_ij
+  double* col_sums;    ///< n_b out: sum_i W_ij
+};
+
+/// Q, W and W's row and column sums of one block pair in one pass (PILCO's second moments,
+/// baselines.md §1a). Each column runs rows in packs of 8, 4, 2 and 1 in a fixed order, so the
+/// results depend only on the inputs and the Isa variant (not on threads). exp overflows to +inf
+/// above 709.78 and underflows to 0 below -708 (as a log Q that low contributes nothing).
+void pair_weights(const PairArgs& args);
+/// pair_weights with a given variant (tests). Precondition: supported(isa).
+void pair_weights(Isa isa, const PairArgs& args);
+
 /// The variant predict_block uses on this CPU (chosen once, by __builtin_cpu_supports).
 Isa selected_isa();
 /// True when this CPU can run variant `isa`.
@@ -47,5 +73,8 @@ const char* isa_name(Isa isa);
 void predict_block_avx512(const PredictArgs& args);
 void predict_block_avx2(const PredictArgs& args);
 void predict_block_generic(const PredictArgs& args);
+void pair_weights_avx512(const PairArgs& args);
+void pair_weights_avx2(const PairArgs& args);
+void pair_weights_generic(const PairArgs& args);
 
 }  // namespace drops::gp::kernels

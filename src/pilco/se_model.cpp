@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "../gp/predict_kernels.hpp"
 #include "detail.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -118,20 +119,18 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
   thread_local MatrixXd Q, W;
   Q.resize(nA, nB);
   Q.noalias() = AT * B.y.transpose();
-  Q.colwise() += lA;
-  Q.rowwise() += lB.transpose();
-  Q.array() = Q.array().exp();
-
   const VectorXd& wA = A.block->weights;
   const VectorXd& wB = B.block->weights;
   W.resize(nA, nB);
-  W.array() = Q.array().colwise() * (mult * wA).array();
-  W.array().rowwise() *= wB.transpose().array();
-  if (variance) {
-    W -= A.block->k_inverse.cwiseProduct(Q);
-    out.cov(a, a) += A.block->signal_variance;
-  }
-  const double total = W.sum();
+  VectorXd r(nA), c(nB);  // W's row and column sums
+  // Q = exp(AT B.y^T + lA 1^T + 1 lB^T) and W = (mult wA wB^T - [K^-1]) .* Q with the sums in one
+  // pass of the SIMD kernel (the exp of the n_A x n_B entries was over half of a step's work).
+  gp::kernels::PairArgs args{Q.data(), lA.data(), lB.data(), wA.data(), wB.data(), mult,
+                             variance ? A.block->k_inverse.data() : nullptr,
+                             nA, nB, Q.data(), W.data(), r.data(), c.data()};
+  gp::kernels::pair_weights(args);
+  if (variance) out.cov(a, a) += A.block->signal_variance;
+  const double total = c.sum();
   out.cov(a, b) += total;
   if (a != b) out.cov(b, a) += total;
 
@@ -142,8 +141,6 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
     const MatrixXd Pab = sq.asDiagonal() * f.inv * sq.asDiagonal();
     const MatrixXd EA = A.y * Rp;
     const MatrixXd FB = B.y * Rp;
-    const VectorXd r = W.rowwise().sum();
-    const VectorXd c = W.colwise().sum().transpose();
     const VectorXd dmu = EA.transpose() * r + FB.transpose() * c;
     const MatrixXd X = EA.transpose() * (W * FB);
     MatrixXd G = EA.transpose() * r.asDiagonal() * EA + FB.transpose() * c.asDiagonal() * FB + X +
@@ -160,8 +157,6 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
   if (params != nullptr) {
     // d log Q_ij / dc_i = -Lambda_A^-1 (nu_i - a_i - b_j), d log Q_ij / dc_j = -Lambda_B^-1 (nu_j -
     // a_i - b_j), d log Q_ij / d(Lambda_A^-1)_d = -1/2 (nu_id - a_id - b_jd)^2 - 1/2 T_dd.
-    const VectorXd r = W.rowwise().sum();
-    const VectorXd c = W.colwise().sum().transpose();
     const MatrixXd gA = A.nu - AT;
     const MatrixXd hB = B.nu - BT;
     const MatrixXd WB = W * BT;
