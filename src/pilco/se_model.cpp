@@ -113,15 +113,19 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
       A.logk.array() - 0.25 * f.logdet + 0.5 * (A.y.array() * AT.array()).rowwise().sum();
   const VectorXd lB =
       B.logk.array() - 0.25 * f.logdet + 0.5 * (B.y.array() * BT.array()).rowwise().sum();
-  // Q and W are n x n (250 x 250 for the swing-up of paper §V-A): per-thread buffers reused across
+  // Q and W are n_A x n_B (up to 300 x 300 on the pendubot): per-thread buffers reused across
   // pairs and calls, since allocating them for every pair (and faulting their pages in) cost more
-  // than the arithmetic.
-  thread_local MatrixXd Q, W;
-  Q.resize(nA, nB);
+  // than the arithmetic. They only grow: a resize to each pair's size (blocks of 50, 200 and 300
+  // centres alternate in a PILCO step) freed and mapped them again every time, which made some
+  // objective evaluations 2-4 times slower than others (bench_pilco, BM_PilcoObjectiveAsDataGrow).
+  thread_local std::vector<double> q_buffer, w_buffer;
+  const auto size = static_cast<std::size_t>(nA * nB);
+  if (q_buffer.size() < size) q_buffer.resize(size);
+  if (w_buffer.size() < size) w_buffer.resize(size);
+  Eigen::Map<MatrixXd> Q(q_buffer.data(), nA, nB), W(w_buffer.data(), nA, nB);
   Q.noalias() = AT * B.y.transpose();
   const VectorXd& wA = A.block->weights;
   const VectorXd& wB = B.block->weights;
-  W.resize(nA, nB);
   VectorXd r(nA), c(nB);  // W's row and column sums
   // Q = exp(AT B.y^T + lA 1^T + 1 lB^T) and W = (mult wA wB^T - [K^-1]) .* Q with the sums in one
   // pass of the SIMD kernel (the exp of the n_A x n_B entries was over half of a step's work).
