@@ -170,9 +170,9 @@ void BM_PilcoObjectiveAsDataGrow(benchmark::State& state) {
   const drops::ThreadLimit limit(2);
   drops::Rng rng(2);
   const std::vector<drops::gp::Gp> real = PendubotGps(N, rng);
-  const pilco::SeModel model =
-      with_prior ? pilco::gp_model_with_prior_mean(PendubotGps(300, rng), real)
-                 : pilco::gp_model(real);
+  const pilco::SeModel model = with_prior
+                                   ? pilco::gp_model_with_prior_mean(PendubotGps(300, rng), real)
+                                   : pilco::gp_model(real);
   const pilco::ExpectedCost J(p.config, model, p.policy, p.cost, p.m0, p.S0, 50);
   const VectorXd theta = p.policy.params();
   VectorXd g;

@@ -45,7 +45,8 @@ struct Problem {
     for (int i = 0; i < n; ++i) alpha[i] = rng.uniform(-1.0, 1.0);
   }
   // Queries [first, first + count) through `isa`.
-  void run(Isa isa, int first, int count, std::vector<double>& mean, std::vector<double>& ss) const {
+  void run(Isa isa, int first, int count, std::vector<double>& mean,
+           std::vector<double>& ss) const {
     const int bp = (count + 7) / 8 * 8;
     MatrixXd q = MatrixXd::Zero(bp, d2);
     q.topRows(count) = qa.middleRows(first, count);
@@ -89,8 +90,10 @@ TEST(GpKernels, EverySupportedVariantMatchesBaselineAndIgnoresTheBatchSplit) {
       for (int count = 1; first + count <= p.queries; ++count) {
         p.run(isa, first, count, m, s);
         for (int q = 0; q < count; ++q) {
-          ASSERT_EQ(m[q], all_m[first + q]) << "first=" << first << " count=" << count << " q=" << q;
-          ASSERT_EQ(s[q], all_s[first + q]) << "first=" << first << " count=" << count << " q=" << q;
+          ASSERT_EQ(m[q], all_m[first + q])
+              << "first=" << first << " count=" << count << " q=" << q;
+          ASSERT_EQ(s[q], all_s[first + q])
+              << "first=" << first << " count=" << count << " q=" << q;
         }
       }
   }
@@ -114,24 +117,36 @@ TEST(GpKernels, PairWeightsMatchAPlainLoopInEveryVariant) {
     g(1, 0) = -800.0;   // exp -> 0
     g(14, 2) = -705.0;  // just inside the range
     g(3, 4) = 0.0;
-    g(5, 6) = 700.0;    // large but finite
-    g(7, 7) = 720.0;    // exp -> +inf
+    g(5, 6) = 700.0;  // large but finite
+    g(7, 7) = 720.0;  // exp -> +inf
     const double mult = 2.0;
     MatrixXd q_ref(na, nb), w_ref(na, nb);
     for (int i = 0; i < na; ++i)
       for (int j = 0; j < nb; ++j) {
         const double x = g(i, j) + la[i] + lb[j];
         q_ref(i, j) = x < -708.0 ? 0.0 : std::exp(x);
-        w_ref(i, j) = q_ref(i, j) * (wa[i] * mult) * wb[j] - (with_kinv ? kinv(i, j) * q_ref(i, j) : 0.0);
+        w_ref(i, j) =
+            q_ref(i, j) * (wa[i] * mult) * wb[j] - (with_kinv ? kinv(i, j) * q_ref(i, j) : 0.0);
       }
     for (const Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kGeneric}) {
       if (!drops::gp::kernels::supported(isa)) continue;
       SCOPED_TRACE(std::string(drops::gp::kernels::isa_name(isa)) + (with_kinv ? " K^-1" : ""));
       MatrixXd q = g, w(na, nb);  // q overwrites g, as in se_model.cpp
       VectorXd r(na), c(nb);
-      drops::gp::kernels::PairArgs a{q.data(), la.data(), lb.data(), wa.data(), wb.data(),
-                                     mult, with_kinv ? kinv.data() : nullptr, na, nb,
-                                     q.data(), w.data(), r.data(), c.data()};
+      drops::gp::kernels::PairArgs a;
+      a.g = q.data();
+      a.la = la.data();
+      a.lb = lb.data();
+      a.wa = wa.data();
+      a.wb = wb.data();
+      a.mult = mult;
+      a.kinv = with_kinv ? kinv.data() : nullptr;
+      a.na = na;
+      a.nb = nb;
+      a.q = q.data();
+      a.w = w.data();
+      a.row_sums = r.data();
+      a.col_sums = c.data();
       drops::gp::kernels::pair_weights(isa, a);
       EXPECT_EQ(q(1, 0), 0.0);
       EXPECT_TRUE(std::isinf(q(7, 7)) && q(7, 7) > 0);

@@ -1,8 +1,8 @@
 #pragma once
-// Hot kernels of Gp::predict_batch and of PILCO's moment matching (pair_weights), kept free of Eigen types so that it can be compiled for several
-// instruction sets in one binary (src/gp/predict_kernels_*.cpp) while everything else, Eigen
-// included, is compiled for baseline x86-64 (16-byte Eigen alignment, the same as Debian's DART).
-// Internal header (not installed).
+// Hot kernels of Gp::predict_batch and of PILCO's moment matching (pair_weights), kept free of
+// Eigen types so that it can be compiled for several instruction sets in one binary
+// (src/gp/predict_kernels_*.cpp) while everything else, Eigen included, is compiled for baseline
+// x86-64 (16-byte Eigen alignment, the same as Debian's DART). Internal header (not installed).
 #include <cstddef>
 
 namespace drops::gp::kernels {
@@ -12,9 +12,9 @@ enum class Isa { kAvx512, kAvx2, kGeneric };
 
 /// Arguments of predict_block (all pointers non-null; raw column-major / row-major storage).
 struct PredictArgs {
-  const double* xa;     ///< n x d2 column-major (leading dimension n): rows [xs, -|xs|^2 / 2, 1]
-  const double* lt;     ///< n x n column-major: column i = row i of the Cholesky factor L (i entries)
-                        ///< followed by L(i, i) at index i
+  const double* xa;  ///< n x d2 column-major (leading dimension n): rows [xs, -|xs|^2 / 2, 1]
+  const double* lt;  ///< n x n column-major: column i = row i of the Cholesky factor L (i entries)
+                     ///< followed by L(i, i) at index i
   const double* alpha;  ///< n: K^-1 y
   std::ptrdiff_t n;     ///< training points, >= 1
   std::ptrdiff_t d2;    ///< D + 2

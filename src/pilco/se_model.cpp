@@ -113,11 +113,12 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
       A.logk.array() - 0.25 * f.logdet + 0.5 * (A.y.array() * AT.array()).rowwise().sum();
   const VectorXd lB =
       B.logk.array() - 0.25 * f.logdet + 0.5 * (B.y.array() * BT.array()).rowwise().sum();
-  // Q and W are n_A x n_B (up to 300 x 300 on the pendubot): per-thread buffers reused across
-  // pairs and calls, since allocating them for every pair (and faulting their pages in) cost more
-  // than the arithmetic. They only grow: a resize to each pair's size (blocks of 50, 200 and 300
-  // centres alternate in a PILCO step) freed and mapped them again every time, which made some
-  // objective evaluations 2-4 times slower than others (bench_pilco, BM_PilcoObjectiveAsDataGrow).
+  // Q and W are n_A x n_B (up to 300 x 300 for the swing-up of paper §V-A): per-thread buffers
+  // reused across pairs and calls, since allocating them for every pair (and faulting their pages
+  // in) cost more than the arithmetic. They only grow: a resize to each pair's size (blocks of 50,
+  // 200 and 300 centres alternate in a PILCO step) freed and mapped them again every time, which
+  // made some objective evaluations 2-4 times slower than others (bench_pilco,
+  // BM_PilcoObjectiveAsDataGrow).
   thread_local std::vector<double> q_buffer, w_buffer;
   const auto size = static_cast<std::size_t>(nA * nB);
   if (q_buffer.size() < size) q_buffer.resize(size);
@@ -129,9 +130,20 @@ void add_pair(const BlockState& A, const BlockState& B, double mult, const Matri
   VectorXd r(nA), c(nB);  // W's row and column sums
   // Q = exp(AT B.y^T + lA 1^T + 1 lB^T) and W = (mult wA wB^T - [K^-1]) .* Q with the sums in one
   // pass of the SIMD kernel (the exp of the n_A x n_B entries was over half of a step's work).
-  gp::kernels::PairArgs args{Q.data(), lA.data(), lB.data(), wA.data(), wB.data(), mult,
-                             variance ? A.block->k_inverse.data() : nullptr,
-                             nA, nB, Q.data(), W.data(), r.data(), c.data()};
+  gp::kernels::PairArgs args;
+  args.g = Q.data();
+  args.la = lA.data();
+  args.lb = lB.data();
+  args.wa = wA.data();
+  args.wb = wB.data();
+  args.mult = mult;
+  args.kinv = variance ? A.block->k_inverse.data() : nullptr;
+  args.na = nA;
+  args.nb = nB;
+  args.q = Q.data();
+  args.w = W.data();
+  args.row_sums = r.data();
+  args.col_sums = c.data();
   gp::kernels::pair_weights(args);
   if (variance) out.cov(a, a) += A.block->signal_variance;
   const double total = c.sum();
