@@ -42,6 +42,9 @@ except ImportError as exc:  # reported by drops as "needs Debian's python3-matpl
 
 COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#9467bd", "#ff7f0e", "#8c564b",
           "#e377c2", "#17becf", "#bcbd22"]
+# The colours of the algorithms of paper §V (variant names of drops report), in COLORS' order.
+VARIANT_COLORS = {"gp_mi": "#1f77b4", "gp_prior": "#d62728", "mi": "#2ca02c", "gp": "#7f7f7f",
+                  "ite": "#9467bd", "pilco": "#ff7f0e", "pilco_prior": "#17becf"}
 # Units of φ components named by a letter and a digit (m1, l2, b1: masses, lengths, friction), and
 # labels of known state columns.
 PHI_UNITS = {"m": "kg", "l": "m", "b": "N·m·s/rad"}
@@ -97,7 +100,13 @@ def plot_report(returns_csv, output_png, ylabel="return"):
             variants.append(r["variant"])
         label[r["variant"]] = r.get("variant_label") or r["variant"]
         title[r["prior"]] = r.get("panel_title") or r["prior"]
-    color = {v: COLORS[i % len(COLORS)] for i, v in enumerate(variants)}
+    # Each known algorithm keeps its colour whatever else the figure holds (a figure with PILCO
+    # with priors and one without draw PILCO alike); other variants take the remaining colours.
+    color = {v: VARIANT_COLORS[v] for v in variants if v in VARIANT_COLORS}
+    spare = [c for c in COLORS if c not in color.values()]
+    for v in variants:
+        if v not in color:
+            color[v] = spare.pop(0) if spare else COLORS[len(color) % len(COLORS)]
 
     n = len(priors)
     ncols = n if n <= 3 else (2 if n == 4 else 3)
