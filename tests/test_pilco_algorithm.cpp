@@ -44,7 +44,8 @@ PilcoOptions Tiny(bool with_prior = false) {
 struct Recorded {
   std::vector<EpisodeRecord> episodes;
   std::vector<RunState> states;
-  std::vector<PhaseRecord> phases;
+  std::vector<PhaseRecord> phases;         // complete phases
+  std::vector<PhaseRecord> phases_so_far;  // reported while the phase ran
   std::vector<drops::algo::Status> simulated;  // the "simulation episode" statuses
   drops::algo::RunSummary summary;
 };
@@ -55,7 +56,12 @@ Recorded RunPilco(const PilcoOptions& o, const drops::rollout::System& real,
   drops::algo::Callbacks cb;
   cb.on_episode = [&](const EpisodeRecord& e) { r.episodes.push_back(e); };
   cb.on_state = [&](const RunState& s) { r.states.push_back(s); };
-  cb.on_phase = [&](const PhaseRecord& p) { r.phases.push_back(p); };
+  cb.on_phase = [&](const PhaseRecord& p) {
+    if (p.complete)
+      r.phases.push_back(p);
+    else
+      r.phases_so_far.push_back(p);
+  };
   cb.on_status = [&](const drops::algo::Status& s) {
     if (s.phase == "simulation episode") r.simulated.push_back(s);
   };
@@ -76,6 +82,10 @@ void ExpectSameEpisode(const EpisodeRecord& a, const EpisodeRecord& b) {
   EXPECT_EQ(a.predicted.states, b.predicted.states);
   EXPECT_TRUE(a.predicted_return == b.predicted_return ||
               (std::isnan(a.predicted_return) && std::isnan(b.predicted_return)));
+}
+
+bool IsPartialSimulation(const RunState& s) {
+  return s.extra.count("simulation.partial.episodes") > 0;
 }
 
 }  // namespace
@@ -185,10 +195,15 @@ TEST(PilcoWithPriors, TheFirstRealEpisodeRunsTheSimulationPolicyAndItsPrediction
   EXPECT_EQ(sim.name, "simulation");
   ASSERT_EQ(sim.episodes.size(), 3u);
   const auto& last = sim.episodes.back().numbers;
-  ASSERT_EQ(r.states.size(), 3u);  // after the simulation phase, then after each real episode
-  EXPECT_EQ(r.states[0].episodes_done, 0);
-  EXPECT_TRUE(r.states[0].data.empty());
-  const Eigen::VectorXd& theta_sim = r.states[0].extra.at("simulation.theta");
+  // After simulated episodes 1 and 2 (the phase so far), after the simulation phase, then after
+  // each real episode.
+  ASSERT_EQ(r.states.size(), 5u);
+  EXPECT_TRUE(IsPartialSimulation(r.states[0]) && IsPartialSimulation(r.states[1]));
+  const RunState& after_sim = r.states[2];
+  EXPECT_FALSE(IsPartialSimulation(after_sim));
+  EXPECT_EQ(after_sim.episodes_done, 0);
+  EXPECT_TRUE(after_sim.data.empty());
+  const Eigen::VectorXd& theta_sim = after_sim.extra.at("simulation.theta");
   const EpisodeRecord& e1 = r.episodes[0];
   EXPECT_EQ(e1.theta, theta_sim);
   EXPECT_EQ(e1.selected, "simulation");
@@ -216,13 +231,76 @@ TEST(PilcoWithPriors, ResumesAfterTheSimulationPhaseAndAfterAnEpisodeIdentically
   const PendulumSystem real;
   PilcoOptions o = Tiny(true);
   const Recorded full = RunPilco(o, real);
-  ASSERT_EQ(full.states.size(), 4u);
+  std::vector<RunState> states;  // after the simulation phase, after episodes 1, 2 and 3
+  for (const auto& st : full.states)
+    if (!IsPartialSimulation(st)) states.push_back(st);
+  ASSERT_EQ(states.size(), 4u);
   for (std::size_t k : {0u, 1u}) {
-    const Recorded rest = RunPilco(o, real, &full.states[k]);
+    const Recorded rest = RunPilco(o, real, &states[k]);
     EXPECT_TRUE(rest.phases.empty());  // the simulation phase is not run again
     ASSERT_EQ(rest.episodes.size(), 3u - k);
     for (std::size_t j = 0; j < rest.episodes.size(); ++j)
       ExpectSameEpisode(rest.episodes[j], full.episodes[k + j]);
+  }
+}
+
+// A run stopped during its simulation phase continues the phase from the last simulated episode:
+// the same simulated returns, phase record and real episodes as a run that was never stopped.
+TEST(PilcoWithPriors, ResumesInsideTheSimulationPhaseIdentically) {
+  const PendulumSystem real;
+  PilcoOptions o = Tiny(true);
+  o.sim_episodes = 4;
+  o.episodes = 2;
+  const Recorded full = RunPilco(o, real);
+  std::vector<RunState> partial;
+  for (const auto& st : full.states)
+    if (IsPartialSimulation(st)) partial.push_back(st);
+  ASSERT_EQ(partial.size(), 3u);  // after simulated episodes 1, 2 and 3 (not after the last)
+  ASSERT_EQ(full.phases.size(), 1u);
+  // The phase so far was reported with each of those episodes (summary.json shows it, and a run
+  // directory stopped then has it to reopen).
+  ASSERT_EQ(full.phases_so_far.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_FALSE(full.phases_so_far[k].complete);
+    EXPECT_EQ(full.phases_so_far[k].episodes.size(), k + 1);
+    EXPECT_EQ(full.phases_so_far[k].summary.numbers.at("episodes_done"), k + 1.0);
+  }
+  for (std::size_t k = 0; k < partial.size(); ++k) {
+    SCOPED_TRACE("resumed after simulated episode " + std::to_string(k + 1));
+    EXPECT_EQ(partial[k].episodes_done, 0);
+    EXPECT_TRUE(partial[k].data.empty());  // no real data yet
+    const Recorded rest = RunPilco(o, real, &partial[k]);
+    ASSERT_EQ(rest.simulated.size(), 3u - k);  // only the episodes still to simulate
+    for (std::size_t j = 0; j < rest.simulated.size(); ++j) {
+      EXPECT_EQ(rest.simulated[j].episode, full.simulated[k + 1 + j].episode);
+      EXPECT_EQ(rest.simulated[j].best, full.simulated[k + 1 + j].best);  // the return
+    }
+    ASSERT_EQ(rest.phases.size(), 1u);
+    const PhaseRecord& a = rest.phases[0];
+    const PhaseRecord& b = full.phases[0];
+    ASSERT_EQ(a.episodes.size(), b.episodes.size());
+    for (std::size_t e = 0; e < a.episodes.size(); ++e) {
+      for (const char* key : {"episode", "return", "predicted_return", "solved"}) {
+        const double x = a.episodes[e].numbers.at(key), y = b.episodes[e].numbers.at(key);
+        EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << key << " of episode " << e + 1;
+      }
+      EXPECT_EQ(a.episodes[e].texts, b.episodes[e].texts) << "episode " << e + 1;
+    }
+    EXPECT_EQ(a.summary.numbers.at("last_return"), b.summary.numbers.at("last_return"));
+    EXPECT_GE(a.summary.numbers.at("seconds"), 0.0);
+    ASSERT_EQ(rest.episodes.size(), full.episodes.size());
+    for (std::size_t j = 0; j < rest.episodes.size(); ++j)
+      ExpectSameEpisode(rest.episodes[j], full.episodes[j]);
+  }
+  // A state that does not fit (its simulated episodes are not a whole number of episodes) is an
+  // error with the key's name, not a silent restart.
+  RunState broken = partial[1];
+  broken.extra["simulation.partial.data"].conservativeResize(7);
+  try {
+    RunPilco(o, real, &broken);
+    ADD_FAILURE() << "expected InvalidArgument";
+  } catch (const drops::InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("simulation.partial.data"), std::string::npos) << e.what();
   }
 }
 

@@ -158,6 +158,7 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   cb.on_state = [&](const algo::RunState& st) { dir->save_state(st); };
   cb.on_phase = [&](const algo::PhaseRecord& p) {
     dir->record_phase(p);
+    if (!p.complete) return;  // the phase so far: its episodes have their own progress lines
     if (live) std::cerr << "\r\033[K";
     if (quiet) return;
     const auto number = [&](const char* k) {

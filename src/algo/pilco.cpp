@@ -549,6 +549,131 @@ SimulationResult restore_simulation(const RunState& st, Index D, Index U, Index 
   return sim;
 }
 
+// The simulation phase so far, saved after each simulated episode but the last (episodes_done
+// stays 0) so that a run stopped during the phase continues it where it was: the phase's
+// transitions, policy, GP warm starts, elapsed seconds and per-episode records. Texts are stored
+// as their bytes, each followed by a 0.
+constexpr const char* kPartial = "simulation.partial.";
+
+struct PartialSimulation {
+  int episodes = 0;
+  LoopState state;
+  std::vector<Details> records;
+  double seconds = 0;
+};
+
+void save_partial_simulation(const PartialSimulation& p, RunState& st) {
+  const std::string k = kPartial;
+  st.extra[k + "episodes"] = VectorXd::Constant(1, p.episodes);
+  st.extra[k + "seconds"] = VectorXd::Constant(1, p.seconds);
+  const auto& data = p.state.data;
+  if (!data.empty()) {
+    const Index D = data.front().x.size(), U = data.front().u.size();
+    MatrixXd rows(static_cast<Index>(data.size()), 2 * D + U);
+    for (std::size_t i = 0; i < data.size(); ++i)
+      rows.row(static_cast<Index>(i)) << data[i].x.transpose(), data[i].u.transpose(),
+          data[i].dx.transpose();
+    st.extra[k + "data"] = flat(rows);
+  }
+  if (p.state.theta.size()) st.extra[k + "theta"] = p.state.theta;
+  for (std::size_t a = 0; a < p.state.h.size(); ++a)
+    st.extra[k + "h." + std::to_string(a)] = p.state.h[a];
+  // Numbers per key as two vectors over the episodes: the values (non-finite ones as 0, as the
+  // checkpoint's JSON has no NaN) and their kinds (0 absent, 1 finite, 2 NaN, 3 +inf, 4 -inf).
+  std::map<std::string, std::pair<VectorXd, VectorXd>> numbers;
+  const auto n = static_cast<Index>(p.records.size());
+  for (Index e = 0; e < n; ++e) {
+    for (const auto& [key, v] : p.records[static_cast<std::size_t>(e)].numbers) {
+      auto [it, fresh] =
+          numbers.try_emplace(key, VectorXd::Zero(n), VectorXd::Zero(n));
+      const bool finite = std::isfinite(v);
+      it->second.first[e] = finite ? v : 0.0;
+      it->second.second[e] = finite ? 1 : std::isnan(v) ? 2 : v > 0 ? 3 : 4;
+    }
+  }
+  std::vector<std::string> text_keys;
+  for (const auto& d : p.records)
+    for (const auto& [key, v] : d.texts)
+      if (std::find(text_keys.begin(), text_keys.end(), key) == text_keys.end())
+        text_keys.push_back(key);
+  for (const auto& key : text_keys) {
+    std::vector<double> bytes;
+    for (const auto& d : p.records) {
+      const auto it = d.texts.find(key);
+      if (it != d.texts.end())
+        for (const unsigned char c : it->second) bytes.push_back(c);
+      bytes.push_back(0);
+    }
+    st.extra[k + "text." + key] = Eigen::Map<const VectorXd>(bytes.data(), bytes.size());
+  }
+  for (auto& [key, v] : numbers) {
+    st.extra[k + "number." + key] = std::move(v.first);
+    st.extra[k + "number_kind." + key] = std::move(v.second);
+  }
+}
+
+bool has_partial_simulation(const RunState& st) {
+  return st.extra.count(std::string(kPartial) + "episodes") > 0;
+}
+
+PartialSimulation restore_partial_simulation(const RunState& st, Index D, Index U, Index H,
+                                             Index Din, int sim_episodes) {
+  const std::string k = kPartial;
+  PartialSimulation p;
+  p.episodes = static_cast<int>(extra(st, k + "episodes")[0]);
+  if (p.episodes < 1 || p.episodes >= sim_episodes)
+    throw InvalidArgument("resume: " + k + "episodes = " + std::to_string(p.episodes) +
+                          " is outside [1, " + std::to_string(sim_episodes - 1) + "]");
+  p.seconds = extra(st, k + "seconds")[0];
+  const Index width = 2 * D + U;
+  const VectorXd& d = extra(st, k + "data");
+  check_size(("resume: " + k + "data (episodes x horizon x (2 D + U))").c_str(),
+             static_cast<long>(p.episodes) * H * width, d.size());
+  const Eigen::Map<const MatrixXd> rows(d.data(), d.size() / width, width);
+  for (Index i = 0; i < rows.rows(); ++i)
+    p.state.data.push_back(
+        {rows.row(i).head(D).transpose(), rows.row(i).segment(D, U).transpose(),
+         rows.row(i).tail(D).transpose()});
+  if (const auto it = st.extra.find(k + "theta"); it != st.extra.end()) p.state.theta = it->second;
+  for (Index a = 0; st.extra.count(k + "h." + std::to_string(a)); ++a) {
+    p.state.h.push_back(extra(st, k + "h." + std::to_string(a)));
+    check_size("resume: simulation GP hyper-parameters", Din + 2, p.state.h.back().size());
+  }
+  p.records.resize(static_cast<std::size_t>(p.episodes));
+  const std::string numbers = k + "number.", texts = k + "text.";
+  for (const auto& [key, v] : st.extra) {
+    if (key.rfind(numbers, 0) == 0) {
+      const std::string name = key.substr(numbers.size());
+      const VectorXd& kind = extra(st, k + "number_kind." + name);
+      check_size(("resume: " + key).c_str(), p.episodes, v.size());
+      check_size(("resume: " + k + "number_kind." + name).c_str(), p.episodes, kind.size());
+      for (int e = 0; e < p.episodes; ++e) {
+        const double inf = std::numeric_limits<double>::infinity();
+        const double value = kind[e] == 1   ? v[e]
+                             : kind[e] == 2 ? std::nan("")
+                             : kind[e] == 3 ? inf
+                                            : -inf;
+        if (kind[e] != 0) p.records[static_cast<std::size_t>(e)].numbers[name] = value;
+      }
+    } else if (key.rfind(texts, 0) == 0) {
+      std::size_t e = 0;
+      std::string text;
+      for (Index i = 0; i < v.size(); ++i) {
+        if (v[i] != 0) {
+          text.push_back(static_cast<char>(static_cast<unsigned char>(v[i])));
+          continue;
+        }
+        if (e >= p.records.size()) throw InvalidArgument("resume: " + key + ": too many texts");
+        if (!text.empty()) p.records[e].texts[key.substr(texts.size())] = text;
+        text.clear();
+        ++e;
+      }
+      check_size(("resume: " + key + " (texts)").c_str(), p.episodes, static_cast<long>(e));
+    }
+  }
+  return p;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -672,8 +797,10 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     callbacks.on_state(rs);
   };
 
-  // 1. Resume, or (with a prior) the simulation phase: PILCO on the simulator at phi_0.
-  if (resume) {
+  // 1. Resume, or (with a prior) the simulation phase: PILCO on the simulator at phi_0, itself
+  // resumed when the run stopped during it.
+  const bool resume_simulation = resume && o.with_prior && has_partial_simulation(*resume);
+  if (resume && !resume_simulation) {
     if (resume->episodes_done < (o.with_prior ? 0 : 1) || resume->episodes_done > o.episodes)
       throw InvalidArgument("resume: episodes_done = " + std::to_string(resume->episodes_done) +
                             " is outside [" + (o.with_prior ? "0" : "1") + ", " +
@@ -702,12 +829,18 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     rollout::RolloutOptions deterministic;
     deterministic.sample = false;
     const rollout::ModelSystem simulator(*simulator_model, deterministic);
-    LoopState ss;
+    PartialSimulation done_so_far;
+    if (resume_simulation)
+      done_so_far = restore_partial_simulation(*resume, D, U, task->horizon(), Din,
+                                               o.sim_episodes);
+    LoopState ss = std::move(done_so_far.state);
     PhaseRecord phase;
     phase.name = "simulation";
+    phase.episodes = std::move(done_so_far.records);
     Plan last;
     const auto t_sim = Clock::now();
-    for (int e = 1; e <= o.sim_episodes; ++e) {
+    const double seconds_before = done_so_far.seconds;
+    for (int e = done_so_far.episodes + 1; e <= o.sim_episodes; ++e) {
       if (stop()) {
         summary.interrupted = true;
         summary.seconds = seconds_since(t_run);
@@ -740,6 +873,24 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
         done.budget = o.sim_episodes;
         callbacks.on_status(done);
       }
+      if (e < o.sim_episodes && callbacks.on_phase) {
+        PhaseRecord so_far = phase;
+        so_far.complete = false;
+        so_far.summary.numbers["episodes_done"] = e;
+        so_far.summary.numbers["episodes"] = o.sim_episodes;
+        so_far.summary.numbers["seconds"] = seconds_before + seconds_since(t_sim);
+        callbacks.on_phase(so_far);
+      }
+      if (e < o.sim_episodes && callbacks.on_state) {
+        RunState rs;
+        PartialSimulation p;
+        p.episodes = e;
+        p.state = ss;
+        p.records = phase.episodes;
+        p.seconds = seconds_before + seconds_since(t_sim);
+        save_partial_simulation(p, rs);
+        callbacks.on_state(rs);
+      }
       last = std::move(plan);
     }
     // The GPs that chose the last policy become the prior mean; that policy, theta_sim, is run
@@ -756,7 +907,7 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     n["prior_mean_centres"] = static_cast<double>(sim.prior.front().centres.rows());
     n["last_return"] = phase.episodes.back().numbers["return"];
     n["last_predicted_return"] = sim.prediction.predicted_return;
-    n["seconds"] = seconds_since(t_sim);
+    n["seconds"] = seconds_before + seconds_since(t_sim);
     phase.summary.texts["system"] = "the simulator prior at its starting phi, deterministic";
     if (callbacks.on_phase) callbacks.on_phase(phase);
     save(0);

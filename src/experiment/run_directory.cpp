@@ -397,6 +397,7 @@ void RunDirectory::record_phase(const algo::PhaseRecord& phase) {
   nlohmann::json eps = nlohmann::json::array();
   for (const auto& d : phase.episodes) eps.push_back(details_json(d));
   p["episodes"] = eps;
+  p["complete"] = phase.complete;
   summary_["phases"][phase.name] = p;
   write_summary("running");
 }

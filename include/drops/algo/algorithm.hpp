@@ -46,11 +46,14 @@ struct Details {
 
 /// A part of a run that is not a real episode and costs no interaction time, e.g. PILCO with
 /// priors' simulation phase (PILCO run on the simulator before the first real episode). Reported
-/// through Callbacks::on_phase once it ends; summary.json keeps it under "phases".<name>.
+/// through Callbacks::on_phase once it ends, and a long phase also after each of its episodes
+/// (complete = false, the episodes so far); summary.json keeps the last report under
+/// "phases".<name>.
 struct PhaseRecord {
   std::string name;               ///< e.g. "simulation"
-  Details summary;                ///< about the whole phase
+  Details summary;                ///< about the whole phase (so far, when not complete)
   std::vector<Details> episodes;  ///< one entry per episode of the phase, in order
+  bool complete = true;           ///< false while the phase runs
 };
 
 /// Everything recorded about one real episode. Complete when the on_episode callback receives it.
