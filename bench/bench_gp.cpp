@@ -1,10 +1,12 @@
 // Micro-benchmarks of drops::gp::Gp: single and batched (B = 16) prediction at N = 50, 100, 500
 // training points with D = 7 inputs (the pendubot GP input size), and iRprop- hyper-parameter fits
-// (300 iterations at most) at N = 100 and 500.
+// (300 iterations at most) at N = 100 and 500; and 48 output GPs of the hexapod model's size
+// predicting batches of 1 to 16 queries at N = 40 and 400.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Core>
 #include <cmath>
+#include <vector>
 
 #include "drops/core/rng.hpp"
 #include "drops/gp/gp.hpp"
@@ -71,6 +73,49 @@ void BM_PredictBatch16(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * kBatch);  // items = query points
 }
 BENCHMARK(BM_PredictBatch16)->Arg(50)->Arg(100)->Arg(500);
+
+// The hexapod's model step without its prior: 48 output GPs of 63 inputs (45 observed state
+// dimensions and 18 joint targets) at N training points, each predicting a batch of B queries.
+// Items are lanes (one query through all 48 outputs); per_lane_us is the time per lane and step.
+void BM_PredictHexapodSizedBatch(benchmark::State& state) {
+  constexpr int kOutputs = 48, kInputs = 63;
+  const int n = static_cast<int>(state.range(0));
+  const int batch = static_cast<int>(state.range(1));
+  drops::Rng rng(11);
+  Eigen::MatrixXd X(n, kInputs);
+  for (int j = 0; j < kInputs; ++j)
+    for (int i = 0; i < n; ++i) X(i, j) = rng.uniform(-1.0, 1.0);
+  std::vector<drops::gp::Gp> gps;
+  for (int o = 0; o < kOutputs; ++o) {
+    Eigen::VectorXd y(n), h(kInputs + 2);
+    for (int i = 0; i < n; ++i) y[i] = std::sin(X(i, o % kInputs)) + 0.05 * rng.normal();
+    gps.emplace_back(kInputs);
+    for (int d = 0; d < kInputs; ++d) h[d] = std::log(rng.uniform(2.0, 8.0));  // log l_d
+    h[kInputs] = 0.0;                                                         // log sigma_f
+    h[kInputs + 1] = std::log(0.05);                                          // log sigma_n
+    gps.back().compute(X, y);
+    gps.back().set_h_params(h);
+  }
+  Eigen::MatrixXd Xq(batch, kInputs);
+  for (int j = 0; j < kInputs; ++j)
+    for (int i = 0; i < batch; ++i) Xq(i, j) = rng.uniform(-1.0, 1.0);
+  Eigen::VectorXd mean(batch), var(batch);
+  for (auto _ : state) {
+    for (const drops::gp::Gp& gp : gps) {
+      gp.predict_batch(Xq, mean, var);
+      benchmark::DoNotOptimize(mean.data());
+      benchmark::DoNotOptimize(var.data());
+    }
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * batch);
+  state.counters["per_lane_us"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * batch),
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert, benchmark::Counter::kIs1000);
+}
+BENCHMARK(BM_PredictHexapodSizedBatch)
+    ->ArgsProduct({{40, 400}, {1, 6, 8, 14, 16}})
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_OptimizeHParams(benchmark::State& state) {
   drops::gp::Gp gp = MakeGp(static_cast<int>(state.range(0)));

@@ -99,6 +99,90 @@ TEST(GpKernels, EverySupportedVariantMatchesBaselineAndIgnoresTheBatchSplit) {
   }
 }
 
+// The forward substitution L v = k* does, per lane, exactly the operations predict_kernels.inc
+// documents (four accumulators a_(k mod 4) for k < 4 floor(i / 4), then a_0 for the rest in
+// order, v_i = ((a_0 + a_2) + (a_1 + a_3)) / L(i, i), ss += v_i^2), whatever blocks of rows the
+// variant runs side by side: checked bit for bit against a scalar loop, with std::fma where the AVX
+// variants contract (-ffp-contract=fast) and plain operations for the generic one. k* comes from
+// the same kernel with L = I (then v = k* exactly). n = 61 leaves rows outside every block;
+// counts 1..20 take every pack path (8, padded rest, 4, 2, a lone query).
+TEST(GpKernels, ForwardSubstitutionIsTheDocumentedLoopBitForBitInEveryVariant) {
+  Rng rng(9);
+  const int n = 61, D = 5, d2 = D + 2, queries = 20, bp = 24;
+  MatrixXd X(n, D), Q(queries, D);
+  for (int i = 0; i < n; ++i)
+    for (int d = 0; d < D; ++d) X(i, d) = rng.uniform(-1.0, 1.0);
+  for (int i = 0; i < queries; ++i)
+    for (int d = 0; d < D; ++d) Q(i, d) = rng.uniform(-1.0, 1.0);
+  MatrixXd xa(n, d2), qa = MatrixXd::Zero(bp, d2);
+  xa << X, -0.5 * X.rowwise().squaredNorm(), VectorXd::Ones(n);
+  VectorXd alpha(n);
+  for (int i = 0; i < n; ++i) alpha[i] = rng.uniform(-1.0, 1.0);
+  // L: lower triangular, diagonal in [1, 2]; lt holds row i of L in its column i.
+  MatrixXd L = MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < i; ++k) L(i, k) = rng.uniform(-0.3, 0.3);
+    L(i, i) = rng.uniform(1.0, 2.0);
+  }
+  const MatrixXd lt = L.transpose(), eye = MatrixXd::Identity(n, n);
+  for (const Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kGeneric}) {
+    if (!drops::gp::kernels::supported(isa)) continue;
+    SCOPED_TRACE(drops::gp::kernels::isa_name(isa));
+    const bool fused = isa != Isa::kGeneric;
+    auto sub = [fused](double a, double l, double v) { return fused ? std::fma(-l, v, a) : a - l * v; };
+    for (int count = 1; count <= queries; ++count) {
+      qa.setZero();
+      qa.topRows(count) << Q.topRows(count), VectorXd::Ones(count),
+          -0.5 * Q.topRows(count).rowwise().squaredNorm();
+      auto run = [&](const MatrixXd& factor, std::vector<double>& v, std::vector<double>& ss) {
+        std::vector<double> mean(static_cast<std::size_t>(count));
+        v.assign(static_cast<std::size_t>(n * bp), 0.0);
+        ss.assign(static_cast<std::size_t>(count), 0.0);
+        drops::gp::kernels::PredictArgs a;
+        a.xa = xa.data();
+        a.lt = factor.data();
+        a.alpha = alpha.data();
+        a.n = n;
+        a.d2 = d2;
+        a.qa = qa.data();
+        a.used = count;
+        a.bp = bp;
+        a.sf2 = 1.7;
+        a.v = v.data();
+        a.mean = mean.data();
+        a.ss = ss.data();
+        drops::gp::kernels::predict_block(isa, a);
+      };
+      std::vector<double> k, ss_eye, v, ss;
+      run(eye, k, ss_eye);
+      run(lt, v, ss);
+      for (int q = 0; q < count; ++q) {
+        std::vector<double> ref(static_cast<std::size_t>(n));
+        double ss_ref = 0.0;
+        for (int i = 0; i < n; ++i) {
+          double a0 = k[static_cast<std::size_t>(i * bp + q)], a1 = 0.0, a2 = 0.0, a3 = 0.0;
+          const int g = i / 4 * 4;
+          for (int j = 0; j < g; j += 4) {
+            a0 = sub(a0, L(i, j), ref[static_cast<std::size_t>(j)]);
+            a1 = sub(a1, L(i, j + 1), ref[static_cast<std::size_t>(j + 1)]);
+            a2 = sub(a2, L(i, j + 2), ref[static_cast<std::size_t>(j + 2)]);
+            a3 = sub(a3, L(i, j + 3), ref[static_cast<std::size_t>(j + 3)]);
+          }
+          for (int j = g; j < i; ++j) a0 = sub(a0, L(i, j), ref[static_cast<std::size_t>(j)]);
+          a0 = a0 + a2;
+          a1 = a1 + a3;
+          const double vi = (a0 + a1) / L(i, i);
+          ref[static_cast<std::size_t>(i)] = vi;
+          ss_ref = fused ? std::fma(vi, vi, ss_ref) : ss_ref + vi * vi;
+          ASSERT_EQ(v[static_cast<std::size_t>(i * bp + q)], vi)
+              << "count=" << count << " q=" << q << " row " << i;
+        }
+        ASSERT_EQ(ss[static_cast<std::size_t>(q)], ss_ref) << "count=" << count << " q=" << q;
+      }
+    }
+  }
+}
+
 // pair_weights (PILCO's block-pair second moments) against a plain loop with std::exp, for every
 // supported variant: odd sizes that use packs of 8, 4, 2 and a lone row, with and without K^-1,
 // log Q from -800 (underflow to 0) through 0 to 720 (overflow to +inf).

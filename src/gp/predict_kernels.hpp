@@ -29,7 +29,8 @@ struct PredictArgs {
 
 /// For the first args.used queries: k* = sf2 exp(min(xa qa^T, 0)) (squared-exponential kernel
 /// with the query), mean = k*^T alpha, forward substitution L v = k* and ss = |v|^2.
-/// Queries are processed in packs of 8, 4 and 2 lanes; every lane performs the same operations in
+/// Queries are processed in packs of 8, 4 and 2 lanes (the rest after the packs of 8 padded to a
+/// pack of 8 where that costs no more registers); every lane performs the same operations in
 /// the same order in every pack width, so a query's results do not depend on the batch it came in
 /// or its position in it. Results of different Isa variants differ at round-off (FMA or not).
 void predict_block(const PredictArgs& args);
