@@ -103,6 +103,126 @@ TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
   EXPECT_GT(start_kept, 0);     // with it, the start itself is returned then
 }
 
+// start_may_be_chosen = false (what skip_known_replays asks for) on a deterministic objective:
+// the start still centres the search and is evaluated, but the returned policy is another one,
+// and the best of the others: by the exact model return, no other evaluated candidate on the
+// short list (the best single evaluations and the runs' final means) beats it. The same searches
+// with the start allowed return the start in some seeds (so the exclusion is what changed them).
+TEST(BlackDrops, WithoutTheStartTheBestOtherEvaluatedPolicyIsReturned) {
+  const auto e = fixtures::experiment({"optimizer.max_evaluations=200", "optimizer.restarts=0"});
+  const auto& task = e.setup.task;
+  const policy::Policy& pol = *e.setup.policy;
+  const auto model = model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
+  auto o = experiment::black_drops_options(e.settings);
+  o.rollouts.sample = false;  // deterministic: one rollout is the exact model return
+  o.reevaluation_rollouts = 1;
+  auto model_return = [&](const VectorXd& theta) {
+    VectorXd r;
+    rollout::evaluate_policies(*task, *model, pol, {theta}, {7}, o.rollouts, r);
+    return r[0];
+  };
+  int start_chosen_when_allowed = 0;
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    o.cmaes.max_evaluations = 200;
+    o.selection = algo::PolicySelection::kReevaluate;
+    const VectorXd start = algo::optimize_policy(*task, *model, pol,
+                                                 VectorXd::Zero(pol.param_dim()), o, seed,
+                                                 nullptr, nullptr).theta;
+    o.cmaes.max_evaluations = 30;
+    for (auto sel : {algo::PolicySelection::kBestSeen, algo::PolicySelection::kReevaluate}) {
+      o.selection = sel;
+      const auto allowed = algo::optimize_policy(*task, *model, pol, start, o, seed + 100,
+                                                 nullptr, nullptr, true);
+      if (allowed.selected == "start") ++start_chosen_when_allowed;
+      const auto other = algo::optimize_policy(*task, *model, pol, start, o, seed + 100, nullptr,
+                                               nullptr, false);
+      // The same search (the choice comes after it): the start was evaluated first.
+      EXPECT_EQ(other.search.evaluations, allowed.search.evaluations);
+      EXPECT_EQ(other.search.start_value, allowed.search.start_value);
+      EXPECT_NE(other.selected, "start") << "seed " << seed;
+      EXPECT_FALSE((other.theta.array() == start.array()).all()) << "seed " << seed;
+      const double chosen = model_return(other.theta);
+      EXPECT_NEAR(other.value, chosen, 1e-9);
+      for (const auto& c : other.search.best_candidates)
+        if (!(c.x.array() == start.array()).all())
+          EXPECT_GE(chosen, model_return(c.x) - 1e-9) << "seed " << seed;
+      if (sel == algo::PolicySelection::kReevaluate)
+        for (const auto& r : other.search.runs)
+          if (!(r.final_mean.array() == start.array()).all())
+            EXPECT_GE(chosen, model_return(r.final_mean) - 1e-9);
+    }
+  }
+  EXPECT_GT(start_chosen_when_allowed, 0);
+}
+
+// skip_known_replays in a run: the "real" pendubot is deterministic, and with the actual system as
+// the prior (gp_prior) and a 20-evaluation search the best policy soon cannot be beaten on the
+// model and is run again with the same return; the episode after that runs another policy and
+// records replay_skipped. Without the option, the same run is identical up to there and then
+// replays the same policy a third time.
+TEST(BlackDrops, AnUnsolvedPolicyReplayedWithTheSameReturnIsNotRunAThirdTime) {
+  const std::vector<std::string> base = {"prior.preset=actual", "model.type=gp_prior",
+                                         "episodes=5", "optimizer.max_evaluations=20",
+                                         "optimizer.prior_optimizations=1"};
+  auto with = [&](const char* skip) {
+    auto ov = base;
+    ov.push_back(std::string("optimizer.skip_known_replays=") + skip);
+    return run(1, ov);
+  };
+  const auto on = with("true"), off = with("false");
+  ASSERT_EQ(on.size(), 5u);
+  ASSERT_EQ(off.size(), 5u);
+  auto same = [](const VectorXd& a, const VectorXd& b) {
+    return a.size() == b.size() && (a.array() == b.array()).all();
+  };
+  // The first identical replay of the best policy so far, and the episode after it.
+  std::size_t replay = 0;
+  for (std::size_t k = 1; k + 1 < on.size() && !replay; ++k) {
+    std::size_t best = 0;
+    for (std::size_t j = 1; j < k; ++j)
+      if (on[j].real_return > on[best].real_return) best = j;
+    if (same(on[k].theta, on[best].theta) && on[k].real_return == on[best].real_return &&
+        !on[best].solved)
+      replay = k;
+  }
+  ASSERT_GT(replay, 0u) << "no identical replay happened: the setting no longer exercises the rule";
+  const std::size_t next = replay + 1;
+  for (std::size_t k = 0; k <= replay; ++k) {
+    EXPECT_EQ(on[k].theta, off[k].theta) << "episode " << k + 1;
+    EXPECT_EQ(on[k].real_return, off[k].real_return);
+    EXPECT_EQ(on[k].details.numbers.count("replay_skipped"), 0u);
+  }
+  EXPECT_FALSE(same(on[next].theta, on[replay].theta));
+  EXPECT_EQ(on[next].details.numbers.count("replay_skipped"), 1u);
+  EXPECT_TRUE(same(off[next].theta, off[replay].theta));  // without it: a third identical run
+  EXPECT_EQ(off[next].real_return, off[replay].real_return);
+  EXPECT_EQ(off[next].details.numbers.count("replay_skipped"), 0u);
+
+  // A run resumed right after the replay knows it (the checkpoint's record) and does the same.
+  auto ov = base;
+  ov.push_back("optimizer.skip_known_replays=true");
+  const auto e = fixtures::experiment(ov);
+  const auto o = experiment::black_drops_options(e.settings);
+  algo::BlackDropsState saved;
+  algo::BlackDropsCallbacks cb;
+  cb.on_state = [&](const algo::BlackDropsState& st) {
+    if (st.episodes_done == static_cast<int>(replay) + 1) saved = st;
+  };
+  ThreadLimit limit(1);
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb);
+  ASSERT_EQ(saved.episodes_done, static_cast<int>(replay) + 1);
+  std::vector<algo::EpisodeRecord> resumed;
+  cb = {};
+  cb.on_episode = [&](const algo::EpisodeRecord& r) { resumed.push_back(r); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb, &saved);
+  ASSERT_FALSE(resumed.empty());
+  EXPECT_EQ(resumed[0].episode, static_cast<int>(next) + 1);
+  EXPECT_EQ(resumed[0].theta, on[next].theta);
+  EXPECT_EQ(resumed[0].details.numbers.count("replay_skipped"), 1u);
+}
+
 // A noisy model (sampled rollouts of a GP learned on 3 random episodes): by a 2,000-rollout oracle,
 // the re-evaluated choice has a better mean than the luckiest single evaluation, and its reported
 // value is close to its mean; the luckiest draw over-states its own.

@@ -19,6 +19,9 @@ double seconds_since(Clock::time_point t0) {
 enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPolicy = 3,
                                  kPredicted = 4, kReevaluation = 5 };
 
+// RunState::extra's record of the best policy's replays: [replayed identically, solved] as 0/1.
+constexpr const char* kBestPolicyKey = "best_policy_replays";
+
 }  // namespace
 
 opt::CmaesOptions policy_search_cmaes_defaults() {
@@ -73,7 +76,7 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
                                    const policy::Policy& policy, const VectorXd& theta0,
                                    const BlackDropsOptions& options, std::uint64_t seed,
                                    const std::function<bool(const opt::CmaesProgress&)>& on_gen,
-                                   long* nonfinite_steps) {
+                                   long* nonfinite_steps, bool start_may_be_chosen) {
   const int n = policy.param_dim();
   check_size("optimize_policy: theta0 vs policy parameters", n, theta0.size());
   const VectorXd lower = VectorXd::Constant(n, -options.theta_bound);
@@ -84,6 +87,7 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
   co.evaluate_start = options.keep_start_point;
   const bool reevaluate = options.selection == PolicySelection::kReevaluate;
   if (reevaluate) co.keep_best = std::max(co.keep_best, options.reevaluation_candidates);
+  if (!start_may_be_chosen) co.keep_best = std::max(co.keep_best, 2);  // the best after the start
   rollout::RolloutStats stats;
   auto objective = [&](const std::vector<VectorXd>& xs, const std::vector<std::uint64_t>& streams,
                        std::vector<double>& values) {
@@ -101,13 +105,21 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
   if (!reevaluate || cs.termination == opt::CmaesTermination::kCallback) {
     result.theta = cs.best_x;
     result.value = -cs.best_value;
-    result.selected = options.keep_start_point && same(cs.best_x, start) ? "start" : "best_seen";
+    if (!start_may_be_chosen && same(cs.best_x, start)) {
+      for (const auto& c : cs.best_candidates)
+        if (!same(c.x, start)) {
+          result.theta = c.x;
+          result.value = -c.value;
+          break;
+        }
+    }
+    result.selected = options.keep_start_point && same(result.theta, start) ? "start" : "best_seen";
   } else {
     // The short list, without repeats: the start, the best single evaluations, the runs' means.
     std::vector<VectorXd> list;
     std::vector<std::string> origin;
     auto add = [&](const VectorXd& x, const char* from) {
-      if (x.size() != n || !x.allFinite()) return;
+      if (x.size() != n || !x.allFinite() || (!start_may_be_chosen && same(x, start))) return;
       for (const auto& y : list)
         if (same(x, y)) return;
       list.push_back(x);
@@ -116,6 +128,10 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
     if (options.keep_start_point) add(start, "start");
     for (const auto& c : cs.best_candidates) add(c.x, "best_seen");
     for (const auto& r : cs.runs) add(r.final_mean, "run_mean");
+    if (list.empty()) {  // nothing but the start was evaluated: it is all there is to run
+      list.push_back(start);
+      origin.emplace_back("start");
+    }
     // Common random numbers: every candidate gets the same rollout streams, so that the
     // differences between candidates are not drowned in the rollouts' own noise.
     rollout::RolloutOptions ro = options.rollouts;
@@ -159,6 +175,9 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   VectorXd best_theta;
   double best_return = -std::numeric_limits<double>::infinity();
   const int n = policy.param_dim();
+  // The best policy's replays (options.skip_known_replays): whether a run of it again gave the
+  // same return, and whether its best episode solved the task.
+  bool best_replayed_identically = false, best_solved = false;
   int first_episode = 1;
   if (resume) {
     if (resume->episodes_done < 1 || resume->episodes_done > options.episodes)
@@ -174,6 +193,14 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     summary.episodes_done = resume->episodes_done;
     summary.best_real_return = best_return;
     first_episode = resume->episodes_done + 1;
+    // A checkpoint from before skip_known_replays has no record: no identical replay known yet.
+    const auto it = resume->extra.find(kBestPolicyKey);
+    if (it != resume->extra.end()) {
+      if (it->second.size() != 2)
+        throw InvalidArgument(std::string("resume: extra.") + kBestPolicyKey + " must hold 2 values");
+      best_replayed_identically = it->second[0] != 0;
+      best_solved = it->second[1] != 0;
+    }
   }
   auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
   auto status = [&](int episode, const char* phase, long evals, double best) {
@@ -235,12 +262,15 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         for (int i = 0; i < n; ++i) theta0[i] = rng.uniform(-options.theta_bound, options.theta_bound);
       }
       const int runs = episode == 1 ? options.prior_optimizations : 1;
+      const bool skip_replay = options.skip_known_replays && best_theta.size() &&
+                               best_replayed_identically && !best_solved;
+      if (skip_replay) rec.details.numbers["replay_skipped"] = 1;
       double chosen_value = -std::numeric_limits<double>::infinity();
       for (int run = 0; run < runs && !interrupted_search; ++run) {
         auto s = optimize_policy(*task, *planning_model, policy, theta0, options,
                                  derive_seed(options.seed, {ep, kPolicySearch,
                                                             static_cast<std::uint64_t>(run)}),
-                                 on_gen, &rec.nonfinite_model_steps);
+                                 on_gen, &rec.nonfinite_model_steps, !skip_replay);
         rec.evaluations += s.search.evaluations;
         if (run == 0 || s.value > chosen_value) {
           chosen_value = s.value;
@@ -286,9 +316,17 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     rec.solved = task->solved(rec.real);
     rec.interaction_time = episode * task->horizon() * task->dt();
     for (auto& t : rec.real.transitions()) data.push_back(std::move(t));
+    const bool replay = best_theta.size() == rec.theta.size() && best_theta.size() &&
+                        (best_theta.array() == rec.theta.array()).all();
+    if (replay && std::abs(rec.real_return - best_return) <=
+                      1e-9 * std::max(1.0, std::abs(best_return)))
+      best_replayed_identically = true;
+    else if (rec.real_return > best_return)
+      best_replayed_identically = false;
     if (rec.real_return > best_return) {
       best_return = rec.real_return;
       best_theta = rec.theta;
+      best_solved = rec.solved;
     }
     if (rec.solved && summary.first_solved_episode == 0) summary.first_solved_episode = episode;
     summary.episodes_done = episode;
@@ -302,6 +340,8 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       st.best_return = best_return;
       st.first_solved_episode = summary.first_solved_episode;
       st.model = model->state();
+      st.extra[kBestPolicyKey] = Eigen::Vector2d(best_replayed_identically ? 1 : 0,
+                                                 best_solved ? 1 : 0);
       callbacks.on_state(st);
     }
   }

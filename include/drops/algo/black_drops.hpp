@@ -66,6 +66,14 @@ struct BlackDropsOptions {
   /// returned policy is never worse on the model than the start (as in the reference's CMA-ES
   /// wrapper). False: the start only centres the first CMA-ES run.
   bool keep_start_point = true;
+  /// A replay that teaches nothing is not made a third time: when the policy of the best real
+  /// episode has been run again and the system gave the same return (|difference| <= 1e-9 max(1,
+  /// |return|): the system is deterministic there, so another run adds the same transitions) and
+  /// it did not solve the task, the next search still starts from it and evaluates it, but runs
+  /// the best other candidate instead (the replay being the one choice that cannot change the
+  /// model). A solved best policy, or one whose replays differ (a noisy system), is run again as
+  /// usual. False: the best policy may be replayed forever (the search before 2026-11-24).
+  bool skip_known_replays = true;
   /// How the returned policy is chosen among the evaluated ones.
   PolicySelection selection = PolicySelection::kReevaluate;
   /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1).
@@ -133,12 +141,15 @@ struct PolicySearchResult {
 /// starting from theta0 (dim n, clamped into the box), then selects the returned policy per
 /// options.selection (a search that on_gen stopped returns its best single evaluation, without
 /// re-evaluation). With options.keep_start_point, theta0 is evaluated first and is a candidate
-/// like any other. Deterministic for a given seed whatever the thread count. Throws
-/// InvalidArgument on size mismatch. Exposed for benchmarks and tests.
+/// like any other. With start_may_be_chosen false the start still centres the search and is
+/// evaluated (with keep_start_point), but the returned policy is the best other one (the start
+/// only when nothing else was evaluated); see BlackDropsOptions::skip_known_replays.
+/// Deterministic for a given seed whatever the thread count. Throws InvalidArgument on size
+/// mismatch. Exposed for benchmarks and tests.
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
                                    const policy::Policy& policy, const VectorXd& theta0,
                                    const BlackDropsOptions& options, std::uint64_t seed,
                                    const std::function<bool(const opt::CmaesProgress&)>& on_gen,
-                                   long* nonfinite_steps);
+                                   long* nonfinite_steps, bool start_may_be_chosen = true);
 
 }  // namespace drops::algo
