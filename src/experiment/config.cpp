@@ -152,7 +152,8 @@ std::vector<KeySpec> build_base_keys() {
   add({"optimizer.skip_known_replays", "bool", boolean(d.skip_known_replays), 0, 0, {}, "-",
        "when the best policy so far has been run again with the same return (the system is "
        "deterministic there) and did not solve the task, the next episode runs the search's best "
-       "other policy instead of a third identical run; false = it may be replayed forever"});
+       "other policy instead of a third identical run (false: it may be replayed again; measured "
+       "in docs/architecture.md, \"The policy search\")"});
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",

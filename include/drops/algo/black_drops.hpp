@@ -66,14 +66,14 @@ struct BlackDropsOptions {
   /// returned policy is never worse on the model than the start (as in the reference's CMA-ES
   /// wrapper). False: the start only centres the first CMA-ES run.
   bool keep_start_point = true;
-  /// A replay that teaches nothing is not made a third time: when the policy of the best real
-  /// episode has been run again and the system gave the same return (|difference| <= 1e-9 max(1,
-  /// |return|): the system is deterministic there, so another run adds the same transitions) and
-  /// it did not solve the task, the next search still starts from it and evaluates it, but runs
-  /// the best other candidate instead (the replay being the one choice that cannot change the
-  /// model). A solved best policy, or one whose replays differ (a noisy system), is run again as
-  /// usual. False: the best policy may be replayed forever (the search before 2026-11-24).
-  bool skip_known_replays = true;
+  /// No third identical run: when the policy of the best real episode has been run again and the
+  /// system gave the same return (|difference| <= 1e-9 max(1, |return|): the system is
+  /// deterministic there, so another run adds the same transitions) and it did not solve the task,
+  /// the next search still starts from it and evaluates it, but runs the best other candidate
+  /// instead. A solved best policy, or one whose replays differ (a noisy system), is run again as
+  /// usual. Off by default: measured on a deterministic task, it freed one stuck run and cost
+  /// about as much elsewhere (docs/architecture.md, "The policy search", links the study).
+  bool skip_known_replays = false;
   /// How the returned policy is chosen among the evaluated ones.
   PolicySelection selection = PolicySelection::kReevaluate;
   /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1).
