@@ -21,6 +21,27 @@ std::vector<algo::EpisodeRecord> run(int threads, const std::vector<std::string>
                         e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
   return records;
 }
+
+// A deterministic objective for optimize_policy: the pendubot's prior alone with mean propagation
+// (one rollout is the exact model return), a 200-evaluation budget and no restarts.
+struct DeterministicPriorSearch {
+  experiment::Experiment e =
+      fixtures::experiment({"optimizer.max_evaluations=200", "optimizer.restarts=0"});
+  std::unique_ptr<model::DynamicsModel> model =
+      model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
+  algo::BlackDropsOptions options = [this] {
+    auto o = experiment::black_drops_options(e.settings);
+    o.rollouts.sample = false;
+    o.reevaluation_rollouts = 1;
+    return o;
+  }();
+  double model_return(const VectorXd& theta) const {
+    VectorXd r;
+    rollout::evaluate_policies(*e.setup.task, *model, *e.setup.policy, {theta}, {7},
+                               options.rollouts, r);
+    return r[0];
+  }
+};
 }  // namespace
 
 TEST(BlackDrops, SameSeedGivesIdenticalEpisodesWithOneAndTwoThreads) {
@@ -60,18 +81,12 @@ TEST(BlackDrops, DifferentSeedsGiveDifferentRuns) {
 // policy is never worse on the model than the start, whatever the selection; without it, a tiny
 // budget from a good start often returns something worse (the situation the option is for).
 TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
-  const auto e = fixtures::experiment({"optimizer.max_evaluations=200", "optimizer.restarts=0"});
-  const auto& task = e.setup.task;
-  const policy::Policy& pol = *e.setup.policy;
-  const auto model = model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
-  auto o = experiment::black_drops_options(e.settings);
-  o.rollouts.sample = false;  // deterministic: one rollout is the exact model return
-  o.reevaluation_rollouts = 1;
-  auto model_return = [&](const VectorXd& theta) {
-    VectorXd r;
-    rollout::evaluate_policies(*task, *model, pol, {theta}, {7}, o.rollouts, r);
-    return r[0];
-  };
+  DeterministicPriorSearch d;
+  const auto& task = d.e.setup.task;
+  const policy::Policy& pol = *d.e.setup.policy;
+  const auto& model = d.model;
+  auto& o = d.options;
+  auto model_return = [&](const VectorXd& theta) { return d.model_return(theta); };
   int worse_without = 0, start_kept = 0;
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {
     o.cmaes.max_evaluations = 200;
@@ -109,18 +124,12 @@ TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
 // short list (the best single evaluations and the runs' final means) beats it. The same searches
 // with the start allowed return the start in some seeds (so the exclusion is what changed them).
 TEST(BlackDrops, WithoutTheStartTheBestOtherEvaluatedPolicyIsReturned) {
-  const auto e = fixtures::experiment({"optimizer.max_evaluations=200", "optimizer.restarts=0"});
-  const auto& task = e.setup.task;
-  const policy::Policy& pol = *e.setup.policy;
-  const auto model = model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
-  auto o = experiment::black_drops_options(e.settings);
-  o.rollouts.sample = false;  // deterministic: one rollout is the exact model return
-  o.reevaluation_rollouts = 1;
-  auto model_return = [&](const VectorXd& theta) {
-    VectorXd r;
-    rollout::evaluate_policies(*task, *model, pol, {theta}, {7}, o.rollouts, r);
-    return r[0];
-  };
+  DeterministicPriorSearch d;
+  const auto& task = d.e.setup.task;
+  const policy::Policy& pol = *d.e.setup.policy;
+  const auto& model = d.model;
+  auto& o = d.options;
+  auto model_return = [&](const VectorXd& theta) { return d.model_return(theta); };
   int start_chosen_when_allowed = 0;
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     o.cmaes.max_evaluations = 200;
