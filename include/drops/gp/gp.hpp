@@ -133,6 +133,9 @@ class Gp {
 
   /// Batched prediction for B query points. Xq: B x D (one query per row); mean, variance: resized
   /// to B. Equal to B calls of predict() up to round-off (~1e-12); much faster for B >= 4. Thread-safe.
+  /// A query's results can differ at round-off between batch sizes (Eigen sums the scaled queries'
+  /// squared norms in an order that depends on B; the kernel after it does not), never between runs
+  /// or thread counts for the same batches.
   /// Hot path of the Monte-Carlo rollouts: uses a per-thread scratch buffer that only grows, so no heap
   /// allocation happens once it has reached N * B and mean/variance already have size B.
   /// Non-finite queries propagate NaN (not checked). Throws InvalidArgument if Xq.cols() != D.
