@@ -24,21 +24,23 @@ std::vector<algo::EpisodeRecord> run(int threads, const std::vector<std::string>
 
 // A deterministic objective for optimize_policy: the pendubot's prior alone with mean propagation
 // (one rollout is the exact model return), a 200-evaluation budget and no restarts.
-struct DeterministicPriorSearch {
+class DeterministicPriorSearch : public ::testing::Test {
+ protected:
   experiment::Experiment e =
       fixtures::experiment({"optimizer.max_evaluations=200", "optimizer.restarts=0"});
+  const std::shared_ptr<const rollout::Task>& task = e.setup.task;
+  const policy::Policy& pol = *e.setup.policy;
   std::unique_ptr<model::DynamicsModel> model =
       model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
-  algo::BlackDropsOptions options = [this] {
-    auto o = experiment::black_drops_options(e.settings);
-    o.rollouts.sample = false;
-    o.reevaluation_rollouts = 1;
-    return o;
+  algo::BlackDropsOptions o = [this] {
+    auto opts = experiment::black_drops_options(e.settings);
+    opts.rollouts.sample = false;
+    opts.reevaluation_rollouts = 1;
+    return opts;
   }();
   double model_return(const VectorXd& theta) const {
     VectorXd r;
-    rollout::evaluate_policies(*e.setup.task, *model, *e.setup.policy, {theta}, {7},
-                               options.rollouts, r);
+    rollout::evaluate_policies(*task, *model, pol, {theta}, {7}, o.rollouts, r);
     return r[0];
   }
 };
@@ -80,13 +82,7 @@ TEST(BlackDrops, DifferentSeedsGiveDifferentRuns) {
 // keep_start_point on a deterministic objective (the prior alone, mean propagation): the returned
 // policy is never worse on the model than the start, whatever the selection; without it, a tiny
 // budget from a good start often returns something worse (the situation the option is for).
-TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
-  DeterministicPriorSearch d;
-  const auto& task = d.e.setup.task;
-  const policy::Policy& pol = *d.e.setup.policy;
-  const auto& model = d.model;
-  auto& o = d.options;
-  auto model_return = [&](const VectorXd& theta) { return d.model_return(theta); };
+TEST_F(DeterministicPriorSearch, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
   int worse_without = 0, start_kept = 0;
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {
     o.cmaes.max_evaluations = 200;
@@ -123,13 +119,7 @@ TEST(BlackDrops, KeepStartNeverReturnsAPolicyWorseOnTheModelThanTheStart) {
 // and the best of the others: by the exact model return, no other evaluated candidate on the
 // short list (the best single evaluations and the runs' final means) beats it. The same searches
 // with the start allowed return the start in some seeds (so the exclusion is what changed them).
-TEST(BlackDrops, WithoutTheStartTheBestOtherEvaluatedPolicyIsReturned) {
-  DeterministicPriorSearch d;
-  const auto& task = d.e.setup.task;
-  const policy::Policy& pol = *d.e.setup.policy;
-  const auto& model = d.model;
-  auto& o = d.options;
-  auto model_return = [&](const VectorXd& theta) { return d.model_return(theta); };
+TEST_F(DeterministicPriorSearch, WithoutTheStartTheBestOtherEvaluatedPolicyIsReturned) {
   int start_chosen_when_allowed = 0;
   for (std::uint64_t seed = 1; seed <= 4; ++seed) {
     o.cmaes.max_evaluations = 200;
