@@ -46,6 +46,11 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
     add({"hexapod.horizon", "int", std::to_string(to.horizon), 1, 10000, {}, "-",
          "control steps of 0.1 s per episode (40 = the paper's 4 s)"});
+    add({"hexapod.reward.tilt_penalty", "double", "10", 0, 1000, {}, "per step",
+         "reward when the body is tilted 90 degrees or more (subtracted per control step; "
+         "settings.md: 10, the paper's task). The walking reward is the forward position times "
+         "dt, about 0.01 per step for a good gait, so this sets how much a predicted fall weighs "
+         "against speed in the policy search (docs/results/hexapod.md, \"The reward scale\")"});
     add({"hexapod.prior.start", "enum", "intact", 0, 0, kLegChoices, "-",
          "the prior simulator of episode 1 and of gp_prior, GP-MI's starting point: the intact "
          "robot or leg k removed (legs 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, "
@@ -131,6 +136,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
 
     HexapodTaskOptions to;
     to.horizon = static_cast<int>(get_int(st, "hexapod.horizon"));
+    to.tilt_penalty = get_double(st, "hexapod.reward.tilt_penalty");
     auto task = std::make_shared<HexapodTask>(to);
     s.task = task;
 

@@ -67,6 +67,24 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_EQ(e.report.phi_value_labels.at(5), "leg5");
 }
 
+// hexapod.reward.tilt_penalty reaches the task's reward: a body on its back (roll = pi) at the
+// start position costs the penalty per step, an upright one nothing; settings.md's 10 by default.
+TEST(HexapodPlugin, TiltPenaltyKeySetsTheTippedReward) {
+  Eigen::VectorXd upright = Eigen::VectorXd::Zero(48);
+  upright[38] = 0.2;  // body z
+  Eigen::VectorXd on_back = upright;
+  on_back[39] = 3.0;  // roll, rad: tilt 172 degrees
+  const auto d = make("task: hexapod\n");
+  EXPECT_DOUBLE_EQ(d.setup.task->reward(upright), 0.0);
+  EXPECT_DOUBLE_EQ(d.setup.task->reward(on_back), -10.0);
+  const auto one = make("task: hexapod\n", {"hexapod.reward.tilt_penalty=1.5"});
+  EXPECT_DOUBLE_EQ(one.setup.task->reward(on_back), -1.5);
+  EXPECT_DOUBLE_EQ(one.setup.task->reward(upright), 0.0);
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.reward.tilt_penalty=-1"}).find(
+                "hexapod.reward.tilt_penalty"),
+            std::string::npos);
+}
+
 TEST(HexapodPlugin, DamageAndPriorChoices) {
   const auto e = make(
       "task: hexapod\nhexapod:\n  damage: {removed_leg: leg5, blocked_leg: leg1, blocked_joint: 2}\n"
