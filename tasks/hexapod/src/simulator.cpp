@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "rigid_step.hpp"
 #include "robot_dart.hpp"
 
 namespace drops::hexapod {
@@ -133,6 +134,12 @@ bool PriorOptions::IsValid(std::string* why) const {
   if (actuation != Actuation::kVelocity && actuation != Actuation::kServo)
     return fail("PriorOptions.actuation must be kVelocity or kServo");
   if (actuation == Actuation::kServo && !servo.IsValid(why)) return false;
+  if (engine != PriorEngine::kDart && engine != PriorEngine::kRigid)
+    return fail("PriorOptions.engine must be kDart or kRigid");
+  if (engine == PriorEngine::kRigid && actuation != Actuation::kVelocity) {
+    return fail("PriorOptions.engine = kRigid needs actuation = kVelocity (kinematic joints); "
+                "the servo robot's joints are dynamic");
+  }
   if (!positive(physics_dt))
     return fail("PriorOptions.physics_dt must be > 0, got " + str(physics_dt));
   if (!positive(control_dt))
@@ -169,6 +176,10 @@ struct PriorSimulator::Impl {
   dart::dynamics::FreeJoint* root = nullptr;
   // Per joint index 3 k + j: the DART degree of freedom, or null for a removed leg.
   std::array<dart::dynamics::DegreeOfFreedom*, kNumJoints> dofs{};
+  // Index among the rigid step's leg dofs of joint 3 k + j (-1 for a removed leg).
+  std::array<int, kNumJoints> leg_dof{};
+  std::unique_ptr<RigidRobotStep> rigid;  // engine == kRigid
+  std::array<double, kNumJoints> rigid_commands{};
   std::array<bool, kNumJoints> blocked{};
   std::array<double, kNumJoints> blocked_angle{};
   // Kinematic joints of removed legs (angle, velocity).
@@ -225,8 +236,11 @@ PriorSimulator::PriorSimulator(const HexapodSpec& spec, const PriorOptions& opti
         joint->setCoulombFriction(0, options.servo.coulomb_friction);
       }
       m.dofs[idx] = joint->getDof(0);
+      m.leg_dof[idx] = static_cast<int>(m.dofs[idx]->getIndexInSkeleton()) - 6;
     }
   }
+  if (options.engine == PriorEngine::kRigid)
+    m.rigid = std::make_unique<RigidRobotStep>(m.world, m.robot);
   reset();
 }
 
@@ -285,7 +299,25 @@ void PriorSimulator::step(const Eigen::VectorXd& q_target) {
     const double lo = std::max(-so.stall_torque, -so.stall_torque * (1.0 + dq / so.no_load_speed));
     return std::clamp(tau, std::min(lo, 0.0), std::max(hi, 0.0));
   };
-  for (int s = 0; s < m.substeps; ++s) {
+  if (m.rigid) {
+    m.rigid->load();
+    for (int s = 0; s < m.substeps; ++s) {
+      for (int i = 0; i < kNumJoints; ++i) {
+        if (m.dofs[i] != nullptr) {
+          if (m.blocked[i]) continue;
+          const int d = m.leg_dof[i];
+          m.rigid_commands[d] = command(target[i] - m.rigid->leg_position(d));
+        } else {
+          m.free_dq[i] = command(target[i] - m.free_q[i]);
+          m.free_q[i] += dt * m.free_dq[i];
+        }
+      }
+      m.rigid->step(m.rigid_commands.data());
+      ++m.steps_done;
+    }
+    m.rigid->store();
+  }
+  for (int s = 0; s < (m.rigid ? 0 : m.substeps); ++s) {
     for (int i = 0; i < kNumJoints; ++i) {
       if (m.dofs[i] != nullptr) {
         if (m.blocked[i]) continue;

@@ -89,6 +89,18 @@ enum class Actuation {
   kServo,
 };
 
+/// How a physics step of the prior is computed (issue 14).
+enum class PriorEngine {
+  /// dart::simulation::World::step (DART 6.12's generic articulated-body and constraint code).
+  kDart,
+  /// A dedicated step for a robot whose leg joints are all kinematic (src/rigid_step.hpp): the
+  /// same world and the same contact model as kDart, computed as one rigid body with prescribed
+  /// joint motion, without DART's per-step machinery. Joint trajectories are kDart's to the bit;
+  /// the body's state agrees to round-off, amplified by the contact dynamics over an episode
+  /// (docs/benchmarks.md, "A dedicated rigid-body step"). Requires Actuation::kVelocity.
+  kRigid,
+};
+
 /// The servo of Actuation::kServo (ours; Dynamixel MX-28-class numbers, see real_robot.hpp).
 /// Available motor torque: tau in [-stall_torque (1 + dq / no_load_speed),
 /// stall_torque (1 - dq / no_load_speed)], each side clipped to +-stall_torque (a DC motor's
@@ -124,6 +136,8 @@ struct PriorOptions {
   Actuation actuation = Actuation::kVelocity;
   /// Servo model, used when actuation == kServo.
   ServoOptions servo;
+  /// How a physics step is computed; kRigid needs actuation == kVelocity.
+  PriorEngine engine = PriorEngine::kDart;
   /// True when every field is in range; otherwise false with the reason in *why (if not null).
   bool IsValid(std::string* why = nullptr) const;
 };

@@ -1,0 +1,573 @@
+// RigidRobotStep (rigid_step.hpp). DART translation unit: no -march=native.
+//
+// Each part follows what DART 6.12 computes for the prior's world; the DART function it stands
+// for is named in a comment (Skeleton::computeForwardDynamics, ContactConstraint, ...). The
+// semantics were read from DART's headers and checked numerically against a DART world step
+// (test_hexapod_rigid_step).
+
+#include "rigid_step.hpp"
+
+#include <dart/external/odelcpsolver/common.h>
+
+#include <algorithm>
+#include <cmath>
+#include <dart/collision/CollisionObject.hpp>
+#include <dart/collision/dart/DARTCollide.hpp>
+#include <dart/collision/dart/DARTCollisionDetector.hpp>
+#include <dart/constraint/ContactConstraint.hpp>
+#include <dart/constraint/DantzigBoxedLcpSolver.hpp>
+#include <dart/constraint/PgsBoxedLcpSolver.hpp>
+#include <dart/dynamics/BodyNode.hpp>
+#include <dart/dynamics/BoxShape.hpp>
+#include <dart/dynamics/FreeJoint.hpp>
+#include <dart/dynamics/RevoluteJoint.hpp>
+#include <dart/dynamics/ShapeNode.hpp>
+#include <dart/dynamics/SphereShape.hpp>
+#include <dart/math/Geometry.hpp>
+#include <limits>
+
+#include "drops/core/errors.hpp"
+
+namespace drops::hexapod {
+
+namespace {
+
+using dart::dynamics::Joint;
+
+// GroundContactFilter's margin (contact_solver.cpp): shapes whose bounding sphere stays this far
+// above the ground are not tested, m.
+constexpr double kHeightMargin = 1e-6;
+// DART's detector drops a contact closer than this to an earlier one of the same step, m.
+constexpr double kDuplicateTolerance = 3.0e-12;
+// ContactConstraint's thresholds (DART 6.12).
+constexpr double kRestitutionThreshold = 1e-3;
+constexpr double kFrictionThreshold = 1e-3;
+constexpr double kBouncingVelocityThreshold = 1e-1;
+constexpr double kMaxBouncingVelocity = 1e+2;
+constexpr double kTangentEpsilonSquared = 1e-12;
+// DART's collideBoxSphere treats a sphere centre closer than this to the box as inside, m.
+constexpr double kCollisionEpsilon = 1e-6;
+// Initial capacity of the contact buffers (grown, with an allocation, when exceeded).
+constexpr int kInitialContacts = 48;
+
+// ContactConstraint::getTangentBasisMatrixODE with the default first friction direction (+z):
+// column 0 = the tangent turned a quarter turn about n, column 1 = the tangent.
+Eigen::Matrix<double, 3, 2> tangent_basis(const Eigen::Vector3d& n) {
+  Eigen::Vector3d tangent = n.cross(Eigen::Vector3d::UnitZ());
+  if (tangent.squaredNorm() < kTangentEpsilonSquared) {
+    tangent = n.cross(Eigen::Vector3d::UnitX());
+    if (tangent.squaredNorm() < kTangentEpsilonSquared) {
+      tangent = n.cross(Eigen::Vector3d::UnitY());
+      if (tangent.squaredNorm() < kTangentEpsilonSquared)
+        tangent = n.cross(Eigen::Vector3d::UnitZ());
+    }
+  }
+  tangent.normalize();
+  Eigen::Matrix<double, 3, 2> t;
+  t.col(0) = Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * M_PI, n)) * tangent;
+  t.col(1) = tangent;
+  return t;
+}
+
+}  // namespace
+
+struct RigidRobotStep::Body {
+  int parent = -1;
+  std::vector<int> children;
+  bool locked = false;
+  dart::dynamics::DegreeOfFreedom* dof = nullptr;  // null for the root
+  Eigen::Isometry3d parent_to_joint = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  Eigen::Vector6d s = Eigen::Vector6d::Zero();        // joint's relative Jacobian [axis; 0]
+  Eigen::Matrix6d inertia = Eigen::Matrix6d::Zero();  // spatial inertia in the body frame
+  double q = 0, dq = 0, ddq = 0, command = 0;
+  Eigen::Isometry3d t_rel = Eigen::Isometry3d::Identity(), t = Eigen::Isometry3d::Identity();
+  Eigen::Vector6d v = Eigen::Vector6d::Zero(), partial_acc = Eigen::Vector6d::Zero();
+  Eigen::Vector6d bias = Eigen::Vector6d::Zero(), impulse = Eigen::Vector6d::Zero();
+  Eigen::Matrix6d art_inertia = Eigen::Matrix6d::Zero();
+  bool has_impulse = false;
+};
+
+struct RigidRobotStep::Shape {
+  int body = 0;
+  const dart::dynamics::ShapeNode* node = nullptr;
+  Eigen::Isometry3d rel = Eigen::Isometry3d::Identity();
+  bool sphere = false;
+  double radius = 0;        // sphere
+  Eigen::Vector3d size;     // box
+  double bound = 0;         // bounding-sphere radius (GroundContactFilter's)
+  double mu1 = 1, mu2 = 1;  // combined with the ground's (minimum)
+  double restitution = 0;   // combined with the ground's (product)
+};
+
+namespace {
+// A collision object for DART's box-box routine, which only stores it in the contacts it reports
+// (and reads its shape frame when adding them to a result).
+class ShapeObject final : public dart::collision::CollisionObject {
+ public:
+  ShapeObject(dart::collision::CollisionDetector* detector, const dart::dynamics::ShapeFrame* frame)
+      : dart::collision::CollisionObject(detector, frame) {}
+
+ protected:
+  void updateEngineData() override {}
+};
+}  // namespace
+
+struct RigidRobotStep::BoxObjects {
+  // Owns nothing the objects use; DART asserts that a collision object has a detector.
+  std::shared_ptr<dart::collision::DARTCollisionDetector> detector =
+      dart::collision::DARTCollisionDetector::create();
+  std::unique_ptr<ShapeObject> ground;
+  std::vector<std::unique_ptr<ShapeObject>> shapes;
+};
+
+RigidRobotStep::RigidRobotStep(const dart::simulation::WorldPtr& world,
+                               const dart::dynamics::SkeletonPtr& robot)
+    : robot_(robot), box_objects_(std::make_unique<BoxObjects>()) {
+  if (!world || !robot) throw InvalidArgument("RigidRobotStep: world and robot must not be null");
+  dt_ = world->getTimeStep();
+  gravity_ = world->getGravity();
+  // The ground: the world's only other skeleton, static, with one box.
+  const dart::dynamics::ShapeNode* ground = nullptr;
+  int others = 0;
+  for (std::size_t i = 0; i < world->getNumSkeletons(); ++i) {
+    const auto skel = world->getSkeleton(i);
+    if (skel == robot) continue;
+    ++others;
+    if (skel->isMobile() || skel->getNumShapeNodes() != 1) break;
+    ground = skel->getShapeNode(0);
+  }
+  if (others != 1 || ground == nullptr ||
+      ground->getShape()->getType() != dart::dynamics::BoxShape::getStaticType()) {
+    throw InvalidArgument(
+        "RigidRobotStep: the world must hold the robot and one static ground box");
+  }
+  ground_tf_ = ground->getWorldTransform();
+  ground_size_ = static_cast<const dart::dynamics::BoxShape*>(ground->getShape().get())->getSize();
+  ground_top_ = (ground_tf_ * Eigen::Vector3d(0, 0, 0.5 * ground_size_.z())).z();
+  const auto* gd = ground->getDynamicsAspect();
+  box_objects_->ground = std::make_unique<ShapeObject>(box_objects_->detector.get(), ground);
+
+  // Bodies, in DART's order (a parent before its children).
+  const std::size_t n = robot->getNumBodyNodes();
+  bodies_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const dart::dynamics::BodyNode* bn = robot->getBodyNode(i);
+    Body& b = bodies_[i];
+    b.inertia = bn->getInertia().getSpatialTensor();
+    const Joint* joint = bn->getParentJoint();
+    if (i == 0) {
+      if (joint->getType() != dart::dynamics::FreeJoint::getStaticType() ||
+          !joint->getTransformFromParentBodyNode().isApprox(Eigen::Isometry3d::Identity(), 0) ||
+          !joint->getTransformFromChildBodyNode().isApprox(Eigen::Isometry3d::Identity(), 0) ||
+          joint->isKinematic()) {
+        throw InvalidArgument(
+            "RigidRobotStep: the root must be a dynamic FreeJoint with identity offsets");
+      }
+      continue;
+    }
+    const auto* rev = dynamic_cast<const dart::dynamics::RevoluteJoint*>(joint);
+    if (rev == nullptr ||
+        !joint->getTransformFromChildBodyNode().isApprox(Eigen::Isometry3d::Identity(), 0)) {
+      throw InvalidArgument("RigidRobotStep: joint '" + joint->getName() +
+                            "' must be a RevoluteJoint with an identity child offset");
+    }
+    const auto type = joint->getActuatorType();
+    if (type != Joint::VELOCITY && type != Joint::LOCKED) {
+      throw InvalidArgument("RigidRobotStep: joint '" + joint->getName() +
+                            "' must be a VELOCITY or LOCKED actuator (kinematic)");
+    }
+    b.locked = type == Joint::LOCKED;
+    b.parent = static_cast<int>(bn->getParentBodyNode()->getIndexInSkeleton());
+    bodies_[static_cast<std::size_t>(b.parent)].children.push_back(static_cast<int>(i));
+    b.dof = const_cast<dart::dynamics::DegreeOfFreedom*>(joint->getDof(0));
+    b.parent_to_joint = joint->getTransformFromParentBodyNode();
+    b.axis = rev->getAxis();
+    b.s.head<3>() = b.axis;
+    leg_dofs_.push_back(static_cast<int>(i));
+    if (static_cast<int>(b.dof->getIndexInSkeleton()) != 5 + static_cast<int>(leg_dofs_.size()))
+      throw InvalidArgument("RigidRobotStep: leg dofs must follow the bodies' order");
+  }
+
+  // Collision shapes, in the order DART's collision group holds them (the skeleton's shape
+  // nodes); DART's detector tests (ground, shape) pairs in that order.
+  for (std::size_t i = 0; i < robot->getNumShapeNodes(); ++i) {
+    const dart::dynamics::ShapeNode* node = robot->getShapeNode(i);
+    if (node->getCollisionAspect() == nullptr || !node->getShape()) continue;
+    Shape s;
+    s.node = node;
+    s.body = static_cast<int>(node->getBodyNodePtr()->getIndexInSkeleton());
+    s.rel = node->getRelativeTransform();
+    const auto& type = node->getShape()->getType();
+    if (type == dart::dynamics::SphereShape::getStaticType()) {
+      s.sphere = true;
+      s.radius =
+          static_cast<const dart::dynamics::SphereShape*>(node->getShape().get())->getRadius();
+    } else if (type == dart::dynamics::BoxShape::getStaticType()) {
+      s.size = static_cast<const dart::dynamics::BoxShape*>(node->getShape().get())->getSize();
+    } else {
+      throw InvalidArgument("RigidRobotStep: shape '" + node->getName() +
+                            "' is neither a box nor a sphere");
+    }
+    const dart::math::BoundingBox& box = node->getShape()->getBoundingBox();
+    s.bound = box.getMin().cwiseAbs().cwiseMax(box.getMax().cwiseAbs()).norm();
+    const auto* d = node->getDynamicsAspect();
+    if (d == nullptr || gd == nullptr)
+      throw InvalidArgument("RigidRobotStep: every shape needs a dynamics aspect");
+    s.mu1 = std::min(gd->getPrimaryFrictionCoeff(), d->getPrimaryFrictionCoeff());
+    s.mu2 = std::min(gd->getSecondaryFrictionCoeff(), d->getSecondaryFrictionCoeff());
+    if (!(s.mu1 > kFrictionThreshold || s.mu2 > kFrictionThreshold) ||
+        gd->getPrimarySlipCompliance() > 0 || d->getPrimarySlipCompliance() > 0 ||
+        gd->getSecondarySlipCompliance() > 0 || d->getSecondarySlipCompliance() > 0 ||
+        gd->getFirstFrictionDirection().squaredNorm() >= kTangentEpsilonSquared ||
+        d->getFirstFrictionDirection().squaredNorm() >= kTangentEpsilonSquared) {
+      throw InvalidArgument("RigidRobotStep: shape '" + node->getName() +
+                            "' needs friction, no slip compliance, no friction direction");
+    }
+    s.restitution = gd->getRestitutionCoeff() * d->getRestitutionCoeff();
+    shapes_.push_back(s);
+    box_objects_->shapes.push_back(
+        std::make_unique<ShapeObject>(box_objects_->detector.get(), node));
+  }
+
+  dantzig_ = std::make_shared<dart::constraint::DantzigBoxedLcpSolver>();
+  pgs_ = std::make_shared<dart::constraint::PgsBoxedLcpSolver>();
+  contacts_.reserve(kInitialContacts);
+  load();
+}
+
+RigidRobotStep::~RigidRobotStep() = default;
+
+void RigidRobotStep::load() {
+  const auto* root = robot_->getRootJoint();
+  root_q_ = root->getPositions();
+  root_v_ = root->getVelocities();
+  for (std::size_t i = 1; i < bodies_.size(); ++i) {
+    bodies_[i].q = bodies_[i].dof->getPosition();
+    bodies_[i].dq = bodies_[i].dof->getVelocity();
+  }
+}
+
+void RigidRobotStep::store() const {
+  auto* root = robot_->getRootJoint();
+  root->setPositions(root_q_);
+  root->setVelocities(root_v_);
+  for (std::size_t i = 1; i < bodies_.size(); ++i) {
+    bodies_[i].dof->setPosition(bodies_[i].q);
+    bodies_[i].dof->setVelocity(bodies_[i].dq);
+  }
+}
+
+double RigidRobotStep::leg_position(int i) const {
+  return bodies_[static_cast<std::size_t>(leg_dofs_[static_cast<std::size_t>(i)])].q;
+}
+
+// Relative and world transforms (FreeJoint::convertToTransform for the root;
+// T_parent_to_joint * expAngular(axis q) for a revolute joint; world = parent world * relative).
+void RigidRobotStep::kinematics() {
+  Body& root = bodies_[0];
+  root.t_rel = dart::dynamics::FreeJoint::convertToTransform(root_q_);
+  root.t = root.t_rel;
+  for (std::size_t i = 1; i < bodies_.size(); ++i) {
+    Body& b = bodies_[i];
+    b.t_rel = b.parent_to_joint * dart::math::expAngular(b.axis * b.q);
+    b.t = bodies_[static_cast<std::size_t>(b.parent)].t * b.t_rel;
+  }
+}
+
+// Spatial velocities in body frames (BodyNode::updateVelocity): AdInvT(T_rel, V_parent) + S dq.
+void RigidRobotStep::velocities() {
+  bodies_[0].v = root_v_;
+  for (std::size_t i = 1; i < bodies_.size(); ++i) {
+    Body& b = bodies_[i];
+    b.v = dart::math::AdInvT(b.t_rel, bodies_[static_cast<std::size_t>(b.parent)].v) + b.s * b.dq;
+  }
+}
+
+// Skeleton::computeForwardDynamics for a skeleton whose joints but the root are kinematic.
+void RigidRobotStep::forward_dynamics() {
+  for (std::size_t i = 1; i < bodies_.size(); ++i) {
+    Body& b = bodies_[i];
+    b.partial_acc = dart::math::ad(b.v, b.s * b.dq);
+  }
+  bodies_[0].partial_acc.setZero();
+  for (std::size_t k = bodies_.size(); k-- > 0;) {
+    Body& b = bodies_[k];
+    // BodyNode::updateArtInertia: the child's inertia added through its kinematic joint.
+    b.art_inertia = b.inertia;
+    for (int c : b.children) {
+      const Body& ch = bodies_[static_cast<std::size_t>(c)];
+      b.art_inertia += dart::math::transformInertia(ch.t_rel.inverse(), ch.art_inertia);
+    }
+    // BodyNode::updateBiasForce: Coriolis and gravity, then the children's bias forces with
+    // their joints' prescribed accelerations.
+    const Eigen::Vector6d gravity_force = b.inertia * dart::math::AdInvRLinear(b.t, gravity_);
+    b.bias = -dart::math::dad(b.v, b.inertia * b.v) - gravity_force;
+    for (int c : b.children) {
+      const Body& ch = bodies_[static_cast<std::size_t>(c)];
+      const Eigen::Vector6d beta = ch.bias + ch.art_inertia * (ch.partial_acc + ch.s * ch.ddq);
+      b.bias += dart::math::dAdInvT(ch.t_rel, beta);
+    }
+    // Joint::updateTotalForce of a kinematic joint: the VELOCITY actuator's acceleration reaches
+    // the command in one step; a LOCKED joint stops.
+    if (k > 0) {
+      if (b.locked) {
+        b.dq = 0.0;
+        b.ddq = 0.0;
+      } else {
+        b.ddq = (b.command - b.dq) / dt_;
+      }
+    }
+  }
+  // The root (a dynamic FreeJoint with identity Jacobian): a = AI^-1 (0 - bias).
+  root_inv_inertia_ = bodies_[0].art_inertia.inverse();
+  const Eigen::Vector6d total_force = -bodies_[0].bias;
+  root_a_ = root_inv_inertia_ * total_force;
+}
+
+int RigidRobotStep::collide() {
+  contacts_.clear();
+  auto add = [&](int body, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                 double depth, const Shape& s) {
+    for (const Contact& c : contacts_)
+      if ((c.point - point).norm() < kDuplicateTolerance) return;
+    Contact c;
+    c.body = body;
+    c.point = point;
+    c.normal = normal;
+    c.depth = depth;
+    c.mu1 = s.mu1;
+    c.mu2 = s.mu2;
+    c.restitution = s.restitution;
+    c.bounce = s.restitution > kRestitutionThreshold;
+    contacts_.push_back(c);
+  };
+  const Eigen::Vector3d half_ground = 0.5 * ground_size_;
+  for (std::size_t k = 0; k < shapes_.size(); ++k) {
+    const Shape& s = shapes_[k];
+    const Eigen::Isometry3d tf = bodies_[static_cast<std::size_t>(s.body)].t * s.rel;
+    if (tf.translation().z() - s.bound > ground_top_ + kHeightMargin) continue;
+    if (s.sphere) {
+      // DART's collideBoxSphere(ground, sphere): the sphere centre clipped to the box.
+      const Eigen::Vector3d c0 = tf.translation();
+      Eigen::Vector3d p = ground_tf_.inverse() * c0;
+      bool inside = true;
+      for (int a = 0; a < 3; ++a) {
+        if (p[a] < -half_ground[a]) {
+          p[a] = -half_ground[a];
+          inside = false;
+        }
+        if (p[a] > half_ground[a]) {
+          p[a] = half_ground[a];
+          inside = false;
+        }
+      }
+      auto nearest_face = [&](double* depth) {
+        double min = half_ground[0] - std::abs(p[0]);
+        int idx = 0;
+        double tmin = half_ground[1] - std::abs(p[1]);
+        if (tmin < min) {
+          min = tmin;
+          idx = 1;
+        }
+        tmin = half_ground[2] - std::abs(p[2]);
+        if (tmin < min) {
+          min = tmin;
+          idx = 2;
+        }
+        Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+        normal[idx] = p[idx] > 0.0 ? -1.0 : 1.0;
+        *depth = min;
+        return Eigen::Vector3d(ground_tf_.linear() * normal);
+      };
+      if (inside) {
+        double min = 0;
+        const Eigen::Vector3d normal = nearest_face(&min);
+        add(s.body, c0, normal, min + s.radius, s);
+        continue;
+      }
+      const Eigen::Vector3d contact_point = ground_tf_ * p;
+      Eigen::Vector3d normal = contact_point - c0;
+      const double mag = normal.norm();
+      const double penetration = s.radius - mag;
+      if (penetration < 0.0) continue;
+      if (mag > kCollisionEpsilon) {
+        normal *= 1.0 / mag;
+      } else {
+        double unused = 0;
+        normal = nearest_face(&unused);
+      }
+      add(s.body, contact_point, normal, penetration, s);
+    } else {
+      // DART's own box-box routine (ODE's dBoxBox), called directly.
+      box_result_.clear();
+      dart::collision::collideBoxBox(box_objects_->ground.get(), box_objects_->shapes[k].get(),
+                                     ground_size_, ground_tf_, s.size, tf, box_result_);
+      for (std::size_t c = 0; c < box_result_.getNumContacts(); ++c) {
+        const dart::collision::Contact& ct = box_result_.getContact(c);
+        add(s.body, ct.point, ct.normal, ct.penetrationDepth, s);
+      }
+    }
+  }
+  return static_cast<int>(contacts_.size());
+}
+
+// ContactConstraint rows, BoxedLcpConstraintSolver's LCP, ContactConstraint::applyImpulse and
+// Skeleton::computeImpulseForwardDynamics for the rigid robot.
+void RigidRobotStep::solve_contacts(int count) {
+  const int n = 3 * count;
+  const int skip = dPAD(n);
+  if (g_.rows() < n) {
+    const int cap = std::max(n, 3 * kInitialContacts);
+    g_.resize(cap, 6);
+    w_.resize(cap, 6);
+    j_.resize(cap, 6);
+    const int cap_skip = dPAD(cap);
+    a_.resize(static_cast<Eigen::Index>(cap) * cap_skip);
+    a0_.resize(a_.size());
+    for (Eigen::VectorXd* v : {&x_, &b_, &lo_, &hi_, &x0_, &b0_, &lo0_, &hi0_}) v->resize(cap);
+    findex_.resize(cap);
+    findex0_.resize(cap);
+  }
+  const double inv_dt = 1.0 / dt_;
+  const double erp = dart::constraint::ContactConstraint::getErrorReductionParameter();
+  const double allowance = dart::constraint::ContactConstraint::getErrorAllowance();
+  const double max_erv = dart::constraint::ContactConstraint::getMaxErrorReductionVelocity();
+  const double cfm = dart::constraint::ContactConstraint::getConstraintForceMixing();
+  for (int c = 0; c < count; ++c) {
+    const Contact& ct = contacts_[static_cast<std::size_t>(c)];
+    const Body& body = bodies_[static_cast<std::size_t>(ct.body)];
+    const Eigen::Matrix<double, 3, 2> d = tangent_basis(ct.normal);
+    // The robot body's rows (DART's body B; the ground, body A, is not reactive).
+    const Eigen::Vector3d point = body.t.inverse() * ct.point;
+    const Eigen::Vector3d dirs[3] = {-ct.normal, -d.col(0), -d.col(1)};
+    for (int r = 0; r < 3; ++r) {
+      Eigen::Vector3d dir;
+      dir.noalias() = body.t.linear().transpose() * dirs[r];
+      Eigen::Vector6d jr;
+      jr.head<3>() = point.cross(dir);
+      jr.tail<3>() = dir;
+      j_.row(3 * c + r) = jr.transpose();
+      b_[3 * c + r] = 0.0 - jr.dot(body.v);
+      // G: the row's Jacobian carried to the root frame, level by level.
+      Eigen::Vector6d f = jr;
+      for (int k = ct.body; k > 0; k = bodies_[static_cast<std::size_t>(k)].parent)
+        f = dart::math::dAdInvT(bodies_[static_cast<std::size_t>(k)].t_rel, f);
+      g_.row(3 * c + r) = f.transpose();
+      x_[3 * c + r] = 0.0;
+    }
+    lo_[3 * c] = 0.0;
+    hi_[3 * c] = std::numeric_limits<double>::infinity();
+    findex_[3 * c] = -1;
+    lo_[3 * c + 1] = -ct.mu1;
+    hi_[3 * c + 1] = ct.mu1;
+    findex_[3 * c + 1] = 3 * c;
+    lo_[3 * c + 2] = -ct.mu2;
+    hi_[3 * c + 2] = ct.mu2;
+    findex_[3 * c + 2] = 3 * c;
+    // Error reduction (penetration) and restitution velocity on the normal row.
+    double bounce = ct.depth - allowance;
+    if (bounce < 0.0) {
+      bounce = 0.0;
+    } else {
+      bounce *= erp * inv_dt;
+      if (bounce > max_erv) bounce = max_erv;
+    }
+    if (ct.bounce) {
+      const double restitution_velocity = b_[3 * c] * ct.restitution;
+      if (restitution_velocity > kBouncingVelocityThreshold && restitution_velocity > bounce)
+        bounce = std::min(restitution_velocity, kMaxBouncingVelocity);
+    }
+    b_[3 * c] += bounce;
+  }
+  // A = G M^-1 G^T (row-major, row stride `skip`), DART's constraint force mixing on the diagonal.
+  w_.topRows(n).noalias() = g_.topRows(n).lazyProduct(root_inv_inertia_);
+  double* a = a_.data();
+  for (int i = 0; i < n; ++i) {
+    for (int j = i; j < n; ++j) {
+      const double v = w_.row(i).dot(g_.row(j));
+      a[i * skip + j] = v;
+      a[j * skip + i] = v;
+    }
+    a[i * skip + i] += a[i * skip + i] * cfm;
+  }
+  // The LCP as BoxedLcpConstraintSolver solves it: Dantzig (stopping early, as a fallback
+  // exists), then PGS on the saved terms if Dantzig fails or gives NaN, zero if NaN remains.
+  std::copy(a, a + static_cast<std::ptrdiff_t>(n) * skip, a0_.data());
+  x0_.head(n) = x_.head(n);
+  b0_.head(n) = b_.head(n);
+  lo0_.head(n) = lo_.head(n);
+  hi0_.head(n) = hi_.head(n);
+  findex0_.head(n) = findex_.head(n);
+  bool success =
+      dantzig_->solve(n, a, x_.data(), b_.data(), 0, lo_.data(), hi_.data(), findex_.data(), true);
+  if (success && x_.head(n).hasNaN()) success = false;
+  if (!success) {
+    ++counts_.lcp_fallbacks;
+    pgs_->solve(n, a0_.data(), x0_.data(), b0_.data(), 0, lo0_.data(), hi0_.data(), findex0_.data(),
+                false);
+    x_.head(n) = x0_.head(n);
+  }
+  if (x_.head(n).hasNaN()) {
+    ++counts_.lcp_failures;
+    x_.head(n).setZero();
+  }
+  // Impulses on the bodies (ContactConstraint::applyImpulse: normal, then the two frictions),
+  // carried to the root as bias impulses; the root's velocity change M^-1 (0 - bias).
+  for (Body& b : bodies_) {
+    b.impulse.setZero();
+    b.has_impulse = false;
+  }
+  for (int c = 0; c < count; ++c) {
+    Body& b = bodies_[static_cast<std::size_t>(contacts_[static_cast<std::size_t>(c)].body)];
+    for (int r = 0; r < 3; ++r) b.impulse += j_.row(3 * c + r).transpose() * x_[3 * c + r];
+    b.has_impulse = true;
+  }
+  for (std::size_t k = bodies_.size(); k-- > 0;) {
+    Body& b = bodies_[k];
+    b.bias = -b.impulse;
+    for (int c : b.children) {
+      const Body& ch = bodies_[static_cast<std::size_t>(c)];
+      if (!ch.has_impulse) continue;
+      b.bias += dart::math::dAdInvT(ch.t_rel, ch.bias);
+      b.has_impulse = true;
+    }
+  }
+  const Eigen::Vector6d total_impulse = -bodies_[0].bias;
+  root_v_ += root_inv_inertia_ * total_impulse;
+}
+
+// Skeleton::integratePositions: q += dq dt; the FreeJoint's Q <- Q * convertToTransform(v dt).
+void RigidRobotStep::integrate_positions() {
+  const Eigen::Isometry3d diff = dart::dynamics::FreeJoint::convertToTransform(root_v_ * dt_);
+  const Eigen::Isometry3d next = bodies_[0].t_rel * diff;
+  root_v_ = dart::math::AdR(diff.inverse(), root_v_);
+  root_q_ = dart::dynamics::FreeJoint::convertToPositions(next);
+  for (std::size_t i = 1; i < bodies_.size(); ++i) bodies_[i].q += bodies_[i].dq * dt_;
+}
+
+void RigidRobotStep::step(const double* commands) {
+  for (std::size_t i = 0; i < leg_dofs_.size(); ++i)
+    bodies_[static_cast<std::size_t>(leg_dofs_[i])].command = commands[i];
+  kinematics();
+  velocities();
+  forward_dynamics();
+  // Skeleton::integrateVelocities.
+  {
+    // FreeJoint::integrateVelocities (DART 6.12): the body-frame spatial acceleration plus
+    // w x v on the linear part, i.e. the origin's classical acceleration in the body frame.
+    const Eigen::Vector3d coriolis = root_v_.head<3>().cross(root_v_.tail<3>());
+    root_v_ = root_v_ + root_a_ * dt_;
+    root_v_.tail<3>() += coriolis * dt_;
+  }
+  for (std::size_t i = 1; i < bodies_.size(); ++i)
+    bodies_[i].dq = bodies_[i].dq + bodies_[i].ddq * dt_;
+  velocities();
+  const int count = collide();
+  counts_.contacts += count;
+  if (count > 0) solve_contacts(count);
+  integrate_positions();
+  ++counts_.steps;
+}
+
+}  // namespace drops::hexapod
