@@ -81,6 +81,7 @@ struct RigidRobotStep::Body {
   Eigen::Vector6d s = Eigen::Vector6d::Zero();        // joint's relative Jacobian [axis; 0]
   Eigen::Matrix6d inertia = Eigen::Matrix6d::Zero();  // spatial inertia in the body frame
   double q = 0, dq = 0, ddq = 0, command = 0;
+  double velocity_lower = 0, velocity_upper = 0;  // GenericJoint::setCommand clips to these
   Eigen::Isometry3d t_rel = Eigen::Isometry3d::Identity(), t = Eigen::Isometry3d::Identity();
   Eigen::Vector6d v = Eigen::Vector6d::Zero(), partial_acc = Eigen::Vector6d::Zero();
   Eigen::Vector6d bias = Eigen::Vector6d::Zero(), impulse = Eigen::Vector6d::Zero();
@@ -183,6 +184,8 @@ RigidRobotStep::RigidRobotStep(const dart::simulation::WorldPtr& world,
     b.dof = const_cast<dart::dynamics::DegreeOfFreedom*>(joint->getDof(0));
     b.parent_to_joint = joint->getTransformFromParentBodyNode();
     b.axis = rev->getAxis();
+    b.velocity_lower = b.dof->getVelocityLowerLimit();
+    b.velocity_upper = b.dof->getVelocityUpperLimit();
     b.s.head<3>() = b.axis;
     leg_dofs_.push_back(static_cast<int>(i));
     if (static_cast<int>(b.dof->getIndexInSkeleton()) != 5 + static_cast<int>(leg_dofs_.size()))
@@ -239,9 +242,10 @@ RigidRobotStep::RigidRobotStep(const dart::simulation::WorldPtr& world,
 RigidRobotStep::~RigidRobotStep() = default;
 
 void RigidRobotStep::load() {
-  const auto* root = robot_->getRootJoint();
-  root_q_ = root->getPositions();
-  root_v_ = root->getVelocities();
+  // The FreeJoint's static accessors: no Eigen::VectorXd temporaries.
+  const auto* root = static_cast<const dart::dynamics::FreeJoint*>(robot_->getRootJoint());
+  root_q_ = root->getPositionsStatic();
+  root_v_ = root->getVelocitiesStatic();
   for (std::size_t i = 1; i < bodies_.size(); ++i) {
     bodies_[i].q = bodies_[i].dof->getPosition();
     bodies_[i].dq = bodies_[i].dof->getVelocity();
@@ -249,9 +253,9 @@ void RigidRobotStep::load() {
 }
 
 void RigidRobotStep::store() const {
-  auto* root = robot_->getRootJoint();
-  root->setPositions(root_q_);
-  root->setVelocities(root_v_);
+  auto* root = static_cast<dart::dynamics::FreeJoint*>(robot_->getRootJoint());
+  root->setPositionsStatic(root_q_);
+  root->setVelocitiesStatic(root_v_);
   for (std::size_t i = 1; i < bodies_.size(); ++i) {
     bodies_[i].dof->setPosition(bodies_[i].q);
     bodies_[i].dof->setVelocity(bodies_[i].dq);
@@ -546,9 +550,21 @@ void RigidRobotStep::integrate_positions() {
   for (std::size_t i = 1; i < bodies_.size(); ++i) bodies_[i].q += bodies_[i].dq * dt_;
 }
 
+void RigidRobotStep::current_contacts(std::vector<Eigen::Isometry3d>* transforms,
+                                      std::vector<Contact>* contacts) {
+  kinematics();
+  collide();
+  transforms->clear();
+  for (const Body& b : bodies_) transforms->push_back(b.t);
+  *contacts = contacts_;
+}
+
 void RigidRobotStep::step(const double* commands) {
-  for (std::size_t i = 0; i < leg_dofs_.size(); ++i)
-    bodies_[static_cast<std::size_t>(leg_dofs_[i])].command = commands[i];
+  // GenericJoint::setCommand of a VELOCITY actuator clips the command to the velocity limits.
+  for (std::size_t i = 0; i < leg_dofs_.size(); ++i) {
+    Body& b = bodies_[static_cast<std::size_t>(leg_dofs_[i])];
+    b.command = std::max(b.velocity_lower, std::min(commands[i], b.velocity_upper));
+  }
   kinematics();
   velocities();
   forward_dynamics();

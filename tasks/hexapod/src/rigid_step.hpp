@@ -78,7 +78,8 @@ class RigidRobotStep {
   void store() const;
   /// One world step of the world's time step. commands: velocity command (rad/s) of each
   /// skeleton degree of freedom of a leg joint, in DART's dof order without the root's six
-  /// (dim skeleton dofs - 6); ignored for LOCKED joints.
+  /// (dim skeleton dofs - 6), clipped to the joint's velocity limits as DART's setCommand does;
+  /// ignored for LOCKED joints.
   void step(const double* commands);
   /// Number of leg degrees of freedom (skeleton dofs - 6).
   int num_leg_dofs() const { return static_cast<int>(leg_dofs_.size()); }
@@ -86,6 +87,20 @@ class RigidRobotStep {
   double leg_position(int i) const;
   /// Counters since construction.
   const RigidStepCounts& counts() const { return counts_; }
+
+  /// A contact of the robot with the ground, as DART's detector reports it (for tests).
+  struct Contact {
+    int body;                ///< index of the robot's body in the skeleton
+    Eigen::Vector3d point;   ///< world frame, m
+    Eigen::Vector3d normal;  ///< world frame, unit, from the robot's shape into the ground
+    double depth;            ///< penetration depth, m
+    double mu1, mu2;         ///< combined friction coefficients
+    double restitution;      ///< combined restitution coefficient
+    bool bounce;             ///< restitution above DART's threshold
+  };
+  /// For tests: the bodies' world transforms (dim bodies, DART's order) and the contacts of the
+  /// current state, computed by the same code as step() (the state is not advanced).
+  void current_contacts(std::vector<Eigen::Isometry3d>* transforms, std::vector<Contact>* contacts);
 
  private:
   struct Body;
@@ -113,15 +128,7 @@ class RigidRobotStep {
   double ground_top_ = 0.0;
   double ground_friction_ = 1.0;
   double ground_restitution_ = 0.0;
-  // Contacts of the current step and the LCP's buffers (capacity kMaxContacts).
-  struct Contact {
-    int body;
-    Eigen::Vector3d point, normal;
-    double depth;
-    double mu1, mu2;
-    bool bounce;
-    double restitution;
-  };
+  // Contacts of the current step and the LCP's buffers (grown when a step has more contacts).
   std::vector<Contact> contacts_;
   Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> g_, w_;  // rows x 6
   Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> j_;      // rows x 6, body frame
