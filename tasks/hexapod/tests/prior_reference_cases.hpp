@@ -37,8 +37,9 @@ struct ReferenceCase {
   Eigen::MatrixXd rows;
 };
 
-/// Every case, in the order of the data file.
-inline std::vector<ReferenceCase> prior_reference_cases() {
+/// Every case, in the order of the data file; the prior's cases (chain, sim, onestep) with the
+/// prior simulator options `options` (e.g. another PriorEngine), the "real" ones as always.
+inline std::vector<ReferenceCase> prior_reference_cases(const PriorOptions& options = {}) {
   struct Gait {
     std::string name;
     Eigen::VectorXd params;
@@ -55,7 +56,9 @@ inline std::vector<ReferenceCase> prior_reference_cases() {
 
   std::vector<ReferenceCase> cases;
   const HexapodTask task;
-  const HexapodPrior prior;
+  HexapodPriorOptions prior_options;
+  prior_options.simulator = options;
+  const HexapodPrior prior(prior_options);
   const int phis[] = {-1, 5, 0};
   for (const Gait& g : gaits) {
     GaitController ctrl;
@@ -72,7 +75,7 @@ inline std::vector<ReferenceCase> prior_reference_cases() {
       }
       cases.push_back({"chain" + suffix, xs});
 
-      PriorSimulator sim(HexapodSpec::with_leg_removed(phi));
+      PriorSimulator sim(HexapodSpec::with_leg_removed(phi), options);
       sim.reset();
       xs.row(0) = sim.state().transpose();
       for (int t = 0; t < 40; ++t) {
