@@ -57,6 +57,10 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          "4 mid-right, 5 rear-right)"});
     add({"hexapod.prior.choices", "names", "[intact, leg0, leg1, leg2, leg3, leg4, leg5]", 0, 0,
          kLegChoices, "-", "the prior family GP-MI and MI search exhaustively (the paper's 7)"});
+    add({"hexapod.prior.engine", "enum", "dart", 0, 0, {"dart", "rigid"}, "-",
+         "how the prior simulator computes a physics step: dart (DART's world step) or rigid (a "
+         "dedicated step for the prior's kinematic legs, the same physics to round-off and about "
+         "5 times faster; docs/benchmarks.md)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
     add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
@@ -156,6 +160,8 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     mo.guard.policy =
         st.at("hexapod.guard") == "clamp" ? StateGuardPolicy::kClamp : StateGuardPolicy::kStop;
     mo.pool_capacity = static_cast<int>(get_int(st, "threads"));  // 0: hardware threads
+    mo.simulator.engine =
+        st.at("hexapod.prior.engine") == "rigid" ? PriorEngine::kRigid : PriorEngine::kDart;
     auto prior = std::make_shared<HexapodPrior>(mo);
     s.prior = prior;
 

@@ -6,6 +6,7 @@
 #include "drops/experiment/experiment.hpp"
 #include "drops/pendubot/plugin.hpp"
 #include "drops/hexapod/plugin.hpp"
+#include "drops/hexapod/prior.hpp"
 
 using namespace drops;
 
@@ -82,6 +83,20 @@ TEST(HexapodPlugin, TiltPenaltyKeySetsTheTippedReward) {
   EXPECT_DOUBLE_EQ(one.setup.task->reward(upright), 0.0);
   EXPECT_NE(error_of("task: hexapod\n", {"hexapod.reward.tilt_penalty=-1"}).find(
                 "hexapod.reward.tilt_penalty"),
+            std::string::npos);
+}
+
+TEST(HexapodPlugin, PriorEngineKeyChoosesThePhysicsStep) {
+  auto engine = [](const std::vector<std::string>& ov) {
+    const auto e = make("task: hexapod\n", ov);
+    const auto prior = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
+    EXPECT_NE(prior, nullptr);
+    return prior ? prior->options().simulator.engine : hexapod::PriorEngine::kDart;
+  };
+  EXPECT_EQ(engine({}), hexapod::PriorEngine::kDart);  // default: unchanged for existing users
+  EXPECT_EQ(engine({"hexapod.prior.engine=rigid"}), hexapod::PriorEngine::kRigid);
+  EXPECT_EQ(engine({"hexapod.prior.engine=dart"}), hexapod::PriorEngine::kDart);
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.engine=fast"}).find("hexapod.prior.engine"),
             std::string::npos);
 }
 
