@@ -12,11 +12,13 @@
 //   BM_PriorOnlyPolicyOptimization
 //                             the same policy optimization on the prior alone (intact robot,
 //                             deterministic): Algorithm 1's first episode
-//   BM_PolicyEvaluations/N/T  rollout throughput (issue 14): kGenerations CMA-ES-sized batches of
+//   BM_PolicyEvaluations/N/T/E
+//                             rollout throughput (issue 14): kGenerations CMA-ES-sized batches of
 //                             14 policies (lambda of 36 parameters), 1 rollout of H = 40 each,
 //                             through rollout::evaluate_policies on the model learned on N
-//                             transitions (N = 0: the prior alone, intact robot), T threads;
-//                             evals_per_s. The policies are uniform in [-0.5, 0.5]^36 (the box a
+//                             transitions (N = 0: the prior alone, intact robot), T threads, the
+//                             prior's physics step E (0: DART's world step, 1: the dedicated rigid
+//                             step, PriorEngine::kRigid); evals_per_s. The policies are uniform in [-0.5, 0.5]^36 (the box a
 //                             large BIPOP run samples) from fixed seeds, the same every run.
 // Data: N = 40 transitions per episode of the intact "real" robot (HexapodRealSystem with its
 // default noise), episode 0 a tripod gait, the next ones uniform random theta in [-0.5, 0.5]^36
@@ -83,9 +85,18 @@ model::ModelOptions run_model_options() {
       .model;
 }
 
-std::unique_ptr<model::DynamicsModel> make_hexapod_model(const model::ModelOptions& o) {
-  return model::make_model(o, std::make_shared<hexapod::HexapodTask>(),
-                           std::make_shared<hexapod::HexapodPrior>(),
+/// The prior with the given physics step (PriorEngine: DART's world step or the dedicated rigid
+/// step).
+std::shared_ptr<hexapod::HexapodPrior> make_prior(
+    hexapod::PriorEngine engine = hexapod::PriorEngine::kDart) {
+  hexapod::HexapodPriorOptions o;
+  o.simulator.engine = engine;
+  return std::make_shared<hexapod::HexapodPrior>(o);
+}
+
+std::unique_ptr<model::DynamicsModel> make_hexapod_model(
+    const model::ModelOptions& o, hexapod::PriorEngine engine = hexapod::PriorEngine::kDart) {
+  return model::make_model(o, std::make_shared<hexapod::HexapodTask>(), make_prior(engine),
                            hexapod::HexapodPrior::prior_parameters());
 }
 
@@ -177,19 +188,26 @@ constexpr int kLambda = 14;  // 4 + floor(3 ln 36)
 void BM_PolicyEvaluations(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   const ThreadLimit limit(static_cast<int>(state.range(1)));
+  const auto engine =
+      state.range(2) == 0 ? hexapod::PriorEngine::kDart : hexapod::PriorEngine::kRigid;
   std::unique_ptr<model::DynamicsModel> prior_only;
   const model::DynamicsModel* model = nullptr;
   if (n == 0) {
-    prior_only = model::make_prior_only_model(std::make_shared<hexapod::HexapodPrior>(),
-                                              hexapod::HexapodPrior::prior_parameters());
+    prior_only =
+        model::make_prior_only_model(make_prior(engine), hexapod::HexapodPrior::prior_parameters());
     model = prior_only.get();
-  } else {
+  } else if (engine == hexapod::PriorEngine::kDart) {
     auto& learned = learned_models()[n];
     if (!learned) {
       learned = make_hexapod_model(run_model_options());
       learned->learn(real_data(n));
     }
     model = learned.get();
+  } else {
+    // Learned with the same prior engine (GP-MI's choice of phi and the GP see its predictions).
+    prior_only = make_hexapod_model(run_model_options(), engine);
+    prior_only->learn(real_data(n));
+    model = prior_only.get();
   }
   const hexapod::HexapodTask task;
   const hexapod::HexapodGaitPolicy policy;
@@ -224,11 +242,16 @@ void BM_PolicyEvaluations(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(evaluations), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_PolicyEvaluations)
-    ->Args({0, 2})
-    ->Args({40, 2})
-    ->Args({400, 2})
-    ->Args({0, 1})
-    ->Args({40, 1})
+    ->Args({0, 2, 0})
+    ->Args({40, 2, 0})
+    ->Args({400, 2, 0})
+    ->Args({0, 1, 0})
+    ->Args({40, 1, 0})
+    ->Args({0, 2, 1})
+    ->Args({40, 2, 1})
+    ->Args({400, 2, 1})
+    ->Args({0, 1, 1})
+    ->Args({40, 1, 1})
     ->UseRealTime()
     ->MinTime(5.0)
     ->Unit(benchmark::kSecond);
