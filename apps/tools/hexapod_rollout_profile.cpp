@@ -1,6 +1,6 @@
 // One batch of hexapod model rollouts, for profilers (issue 14: where a model rollout's time goes).
 //
-//   hexapod_rollout_profile N EVALUATIONS [THREADS [RPROP_ITERATIONS]]
+//   hexapod_rollout_profile N EVALUATIONS [THREADS [RPROP_ITERATIONS [ENGINE]]]
 //
 // N = 0: the prior alone (make_prior_only_model, intact robot); N > 0: a gp_prior model (intact
 // prior, the kernels fitted with RPROP_ITERATIONS (default 20) Rprop iterations: the cost of a
@@ -12,11 +12,13 @@
 //
 //   valgrind --tool=callgrind --instr-atstart=no build/bench/hexapod_rollout_profile 40 16 1
 //
+// ENGINE: the prior's physics step, dart (default) or rigid (hexapod::PriorEngine).
 // Prints the wall-clock time of the call and the mean return.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <string>
 #include <vector>
 
 #if __has_include(<valgrind/callgrind.h>)
@@ -40,14 +42,24 @@ using namespace drops;
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
-                 "usage: hexapod_rollout_profile N EVALUATIONS [THREADS [RPROP_ITERATIONS]]\n");
+                 "usage: hexapod_rollout_profile N EVALUATIONS [THREADS [RPROP_ITERATIONS "
+                 "[ENGINE]]]\n");
     return 2;
   }
   const int n = std::atoi(argv[1]);
   const int evaluations = std::atoi(argv[2]);
   const ThreadLimit limit(argc > 3 ? std::atoi(argv[3]) : 1);
   auto task = std::make_shared<hexapod::HexapodTask>();
-  auto prior = std::make_shared<hexapod::HexapodPrior>();
+  hexapod::HexapodPriorOptions prior_options;
+  const std::string engine = argc > 5 ? argv[5] : "dart";
+  if (engine != "dart" && engine != "rigid") {
+    std::fprintf(stderr, "hexapod_rollout_profile: ENGINE must be dart or rigid, got %s\n",
+                 engine.c_str());
+    return 2;
+  }
+  prior_options.simulator.engine =
+      engine == "rigid" ? hexapod::PriorEngine::kRigid : hexapod::PriorEngine::kDart;
+  auto prior = std::make_shared<hexapod::HexapodPrior>(prior_options);
   std::unique_ptr<model::DynamicsModel> model;
   if (n == 0) {
     model = model::make_prior_only_model(prior, hexapod::HexapodPrior::prior_parameters());
