@@ -69,6 +69,44 @@ Eigen::Matrix<double, 3, 2> tangent_basis(const Eigen::Vector3d& n) {
   return t;
 }
 
+// Cholesky factor L (lower) of a symmetric positive definite 6 x 6 matrix m = L L^T.
+Eigen::Matrix6d cholesky6(const Eigen::Matrix6d& m) {
+  Eigen::Matrix6d l = Eigen::Matrix6d::Zero();
+  for (int j = 0; j < 6; ++j) {
+    double d = m(j, j);
+    for (int k = 0; k < j; ++k) d -= l(j, k) * l(j, k);
+    l(j, j) = std::sqrt(d);
+    for (int i = j + 1; i < 6; ++i) {
+      double v = m(i, j);
+      for (int k = 0; k < j; ++k) v -= l(i, k) * l(j, k);
+      l(i, j) = v / l(j, j);
+    }
+  }
+  return l;
+}
+
+// y = L^-1 f (forward substitution).
+Eigen::Vector6d forward6(const Eigen::Matrix6d& l, const Eigen::Vector6d& f) {
+  Eigen::Vector6d y;
+  for (int i = 0; i < 6; ++i) {
+    double v = f[i];
+    for (int k = 0; k < i; ++k) v -= l(i, k) * y[k];
+    y[i] = v / l(i, i);
+  }
+  return y;
+}
+
+// x = (L L^T)^-1 f.
+Eigen::Vector6d solve6(const Eigen::Matrix6d& l, const Eigen::Vector6d& f) {
+  Eigen::Vector6d x = forward6(l, f);
+  for (int i = 5; i >= 0; --i) {
+    double v = x[i];
+    for (int k = i + 1; k < 6; ++k) v -= l(k, i) * x[k];
+    x[i] = v / l(i, i);
+  }
+  return x;
+}
+
 }  // namespace
 
 struct RigidRobotStep::Body {
@@ -84,9 +122,8 @@ struct RigidRobotStep::Body {
   double velocity_lower = 0, velocity_upper = 0;  // GenericJoint::setCommand clips to these
   Eigen::Isometry3d t_rel = Eigen::Isometry3d::Identity(), t = Eigen::Isometry3d::Identity();
   Eigen::Vector6d v = Eigen::Vector6d::Zero(), partial_acc = Eigen::Vector6d::Zero();
-  Eigen::Vector6d bias = Eigen::Vector6d::Zero(), impulse = Eigen::Vector6d::Zero();
+  Eigen::Vector6d bias = Eigen::Vector6d::Zero();
   Eigen::Matrix6d art_inertia = Eigen::Matrix6d::Zero();
-  bool has_impulse = false;
 };
 
 struct RigidRobotStep::Shape {
@@ -323,10 +360,11 @@ void RigidRobotStep::forward_dynamics() {
       }
     }
   }
-  // The root (a dynamic FreeJoint with identity Jacobian): a = AI^-1 (0 - bias).
-  root_inv_inertia_ = bodies_[0].art_inertia.inverse();
+  // The root (a dynamic FreeJoint with identity Jacobian): a = AI^-1 (0 - bias), with AI's
+  // Cholesky factor (DART inverts AI; the same to round-off).
+  root_factor_ = cholesky6(bodies_[0].art_inertia);
   const Eigen::Vector6d total_force = -bodies_[0].bias;
-  root_a_ = root_inv_inertia_ * total_force;
+  root_a_ = solve6(root_factor_, total_force);
 }
 
 int RigidRobotStep::collide() {
@@ -425,7 +463,6 @@ void RigidRobotStep::solve_contacts(int count) {
     const int cap = std::max(n, 3 * kInitialContacts);
     g_.resize(cap, 6);
     w_.resize(cap, 6);
-    j_.resize(cap, 6);
     const int cap_skip = dPAD(cap);
     a_.resize(static_cast<Eigen::Index>(cap) * cap_skip);
     a0_.resize(a_.size());
@@ -438,12 +475,16 @@ void RigidRobotStep::solve_contacts(int count) {
   const double allowance = dart::constraint::ContactConstraint::getErrorAllowance();
   const double max_erv = dart::constraint::ContactConstraint::getMaxErrorReductionVelocity();
   const double cfm = dart::constraint::ContactConstraint::getConstraintForceMixing();
+  const Body& root = bodies_[0];
   for (int c = 0; c < count; ++c) {
     const Contact& ct = contacts_[static_cast<std::size_t>(c)];
     const Body& body = bodies_[static_cast<std::size_t>(ct.body)];
     const Eigen::Matrix<double, 3, 2> d = tangent_basis(ct.normal);
-    // The robot body's rows (DART's body B; the ground, body A, is not reactive).
+    // The robot body's rows (DART's body B; the ground, body A, is not reactive): J in the
+    // body's frame for the rows' velocities, and G, the same unit forces at the contact point in
+    // the root's frame (what DART's bias-impulse recursion carries to the root).
     const Eigen::Vector3d point = body.t.inverse() * ct.point;
+    const Eigen::Vector3d root_point = root.t.inverse() * ct.point;
     const Eigen::Vector3d dirs[3] = {-ct.normal, -d.col(0), -d.col(1)};
     for (int r = 0; r < 3; ++r) {
       Eigen::Vector3d dir;
@@ -451,13 +492,15 @@ void RigidRobotStep::solve_contacts(int count) {
       Eigen::Vector6d jr;
       jr.head<3>() = point.cross(dir);
       jr.tail<3>() = dir;
-      j_.row(3 * c + r) = jr.transpose();
       b_[3 * c + r] = 0.0 - jr.dot(body.v);
-      // G: the row's Jacobian carried to the root frame, level by level.
-      Eigen::Vector6d f = jr;
-      for (int k = ct.body; k > 0; k = bodies_[static_cast<std::size_t>(k)].parent)
-        f = dart::math::dAdInvT(bodies_[static_cast<std::size_t>(k)].t_rel, f);
-      g_.row(3 * c + r) = f.transpose();
+      Eigen::Vector3d root_dir;
+      root_dir.noalias() = root.t.linear().transpose() * dirs[r];
+      Eigen::Vector6d gr;
+      gr.head<3>() = root_point.cross(root_dir);
+      gr.tail<3>() = root_dir;
+      g_.row(3 * c + r) = gr.transpose();
+      // W = G L^-T, so that A = G M^-1 G^T = W W^T.
+      w_.row(3 * c + r) = forward6(root_factor_, gr).transpose();
       x_[3 * c + r] = 0.0;
     }
     lo_[3 * c] = 0.0;
@@ -484,12 +527,12 @@ void RigidRobotStep::solve_contacts(int count) {
     }
     b_[3 * c] += bounce;
   }
-  // A = G M^-1 G^T (row-major, row stride `skip`), DART's constraint force mixing on the diagonal.
-  w_.topRows(n).noalias() = g_.topRows(n).lazyProduct(root_inv_inertia_);
+  // A = G M^-1 G^T = W W^T (row-major, row stride `skip`), DART's constraint force mixing on the
+  // diagonal.
   double* a = a_.data();
   for (int i = 0; i < n; ++i) {
     for (int j = i; j < n; ++j) {
-      const double v = w_.row(i).dot(g_.row(j));
+      const double v = w_.row(i).dot(w_.row(j));
       a[i * skip + j] = v;
       a[j * skip + i] = v;
     }
@@ -516,29 +559,12 @@ void RigidRobotStep::solve_contacts(int count) {
     ++counts_.lcp_failures;
     x_.head(n).setZero();
   }
-  // Impulses on the bodies (ContactConstraint::applyImpulse: normal, then the two frictions),
-  // carried to the root as bias impulses; the root's velocity change M^-1 (0 - bias).
-  for (Body& b : bodies_) {
-    b.impulse.setZero();
-    b.has_impulse = false;
-  }
-  for (int c = 0; c < count; ++c) {
-    Body& b = bodies_[static_cast<std::size_t>(contacts_[static_cast<std::size_t>(c)].body)];
-    for (int r = 0; r < 3; ++r) b.impulse += j_.row(3 * c + r).transpose() * x_[3 * c + r];
-    b.has_impulse = true;
-  }
-  for (std::size_t k = bodies_.size(); k-- > 0;) {
-    Body& b = bodies_[k];
-    b.bias = -b.impulse;
-    for (int c : b.children) {
-      const Body& ch = bodies_[static_cast<std::size_t>(c)];
-      if (!ch.has_impulse) continue;
-      b.bias += dart::math::dAdInvT(ch.t_rel, ch.bias);
-      b.has_impulse = true;
-    }
-  }
-  const Eigen::Vector6d total_impulse = -bodies_[0].bias;
-  root_v_ += root_inv_inertia_ * total_impulse;
+  // The impulses (ContactConstraint::applyImpulse: normal, then the two frictions) as one
+  // impulse on the root, G^T x, and the root's velocity change M^-1 G^T x (DART carries each
+  // body's impulse to the root through its bias-impulse recursion: the same sum).
+  Eigen::Vector6d impulse = Eigen::Vector6d::Zero();
+  for (int r = 0; r < n; ++r) impulse += g_.row(r).transpose() * x_[r];
+  root_v_ += solve6(root_factor_, impulse);
 }
 
 // Skeleton::integratePositions: q += dq dt; the FreeJoint's Q <- Q * convertToTransform(v dt).

@@ -11,7 +11,8 @@
 ///     its bias force (Coriolis and centrifugal terms, gravity, and the joint accelerations a
 ///     VELOCITY actuator imposes, ddq = (command - dq) / dt, so that dq reaches the command in
 ///     one step; zero for a LOCKED joint), each level as DART's articulated-body recursion does
-///     it (the same dart::math routines); the root's acceleration from them;
+///     it (the same dart::math routines); the root's acceleration from them (through a Cholesky
+///     factor of the composite inertia, where DART inverts it);
 ///  2. velocity integration: dq += ddq dt for every joint; for the root FreeJoint DART 6.12 adds
 ///     w x v dt to the linear part as well (v_lin += (a_lin + w x v_lin) dt: the origin's
 ///     classical acceleration in the body frame, measured against DART);
@@ -26,10 +27,13 @@
 ///     Q <- Q * D with D = convertToTransform(v dt), after which the body-frame velocity is
 ///     rotated into the new frame, v <- AdR(D^-1, v) (so the world-frame velocity is kept).
 /// The joint trajectories are therefore DART's to the bit; the body's state agrees with DART's
-/// up to round-off (A and the recursions' sums in another order), which the contact dynamics
-/// amplify over many steps (test_hexapod_rigid_step measures both). DART's sources were not
-/// copied: the semantics come from DART's headers (GenericJoint's template code is in them) and
-/// were checked step by step against a DART world (bit-identical without contacts).
+/// up to round-off (A, the inertia's factor and the impulse's sum in another order; the bodies'
+/// transforms and the contacts are DART's to the bit), which the contact dynamics
+/// amplify over many steps (test_hexapod_rigid_step measures both). Nothing is copied from DART:
+/// its semantics were taken from its headers (GenericJoint's template code is in them) and from
+/// reading its public sources (ContactConstraint, the sphere-box test), written here for this
+/// world only, and checked step by step against a DART world (where a source read did not match
+/// DART 6.12's behaviour, e.g. the FreeJoint's integration, the measurement decided).
 ///
 /// Includes DART: for the drops_hexapod target's sources only (see robot_dart.hpp).
 
@@ -121,7 +125,7 @@ class RigidRobotStep {
   Eigen::Vector6d root_q_;     // FreeJoint positions (rotation vector, translation)
   Eigen::Vector6d root_v_;     // FreeJoint velocities (body frame: angular, linear)
   Eigen::Vector6d root_a_;
-  Eigen::Matrix6d root_inv_inertia_;
+  Eigen::Matrix6d root_factor_;  // Cholesky factor L of the root's composite inertia
   // Ground box.
   Eigen::Isometry3d ground_tf_;
   Eigen::Vector3d ground_size_;
@@ -130,8 +134,8 @@ class RigidRobotStep {
   double ground_restitution_ = 0.0;
   // Contacts of the current step and the LCP's buffers (grown when a step has more contacts).
   std::vector<Contact> contacts_;
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> g_, w_;  // rows x 6
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> j_;      // rows x 6, body frame
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> g_;  // rows x 6: G (root frame)
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> w_;  // rows x 6: G L^-T
   Eigen::VectorXd a_, x_, b_, lo_, hi_, a0_, x0_, b0_, lo0_, hi0_;
   Eigen::VectorXi findex_, findex0_;
   std::shared_ptr<dart::constraint::BoxedLcpSolver> dantzig_, pgs_;

@@ -170,7 +170,7 @@ TEST(HexapodRigidStep, TransformsAndContactsAreDarts) {
 // normals, depths, in the same order), and the states after the step agree.
 TEST(HexapodRigidStep, OnePhysicsStepFromRandomStatesMatchesDart) {
   // Measured (600 states; intact, legs 5 and 0 removed; up to 53 contacts): joints 0
-  // (bit-identical), pose 2.9e-11 m or rad, velocities 2.8e-9 m/s or rad/s. For scale, DART's own
+  // (bit-identical), pose 4.5e-11 m or rad, velocities 3.1e-9 m/s or rad/s. For scale, DART's own
   // two constructions of the LCP matrix (RigidRobotContactSolver's and DART's row-by-row one)
   // differ by 5.8e-11 and 4.0e-9 on the same states: the LCPs of many contacts (rank 6, up to
   // 159 rows) amplify round-off in A to this level.
@@ -216,7 +216,7 @@ TEST(HexapodRigidStep, OnePhysicsStepFromRandomStatesMatchesDart) {
 // One control step (10 physics steps) from the same random states and from recorded states of
 // the "real" robot (the onestep cases of the reference data).
 TEST(HexapodRigidStep, OneControlStepMatchesDart) {
-  // Measured (400 random and 320 recorded states): joints 0, pose 1.6e-10, velocities 2.9e-9.
+  // Measured (400 random and 320 recorded states): joints 0, pose 1.1e-10, velocities 3.9e-9.
   constexpr double kJoints = 0.0, kPose = 3e-9, kVelocity = 1e-7;
   Rng rng(5);
   Deviation dev;
@@ -325,19 +325,18 @@ TEST(HexapodRigidStep, ReferenceCasesMatchDartAndTheReferenceData) {
   ASSERT_EQ(dart.size(), rigid.size());
   std::map<std::string, Eigen::MatrixXd> dart_now;
   for (const auto& c : dart) dart_now[c.name] = c.rows;
-  // Measured against DART now: episodes joints 0, pose 6.2e-9 m or rad, velocities 2.7e-8, the
-  // walking speed 2.3e-10 m/s (the intact tripod gait); one step joints 0, pose 8.9e-16,
-  // velocities 5.7e-15.
+  // Measured against DART now: episodes joints 0, pose 1.5e-9 m or rad, velocities 6.3e-9, the
+  // walking speed 5.6e-11 m/s; one step joints 0, pose 6.7e-16, velocities 2.7e-15.
   const CaseDeviations now = compare(rigid, dart_now, "rigid - DART");
   EXPECT_LE(now.episode.joints, 0.0);
-  EXPECT_LE(now.episode.pose, 3e-7);
-  EXPECT_LE(now.episode.velocity, 1e-6);
-  EXPECT_LE(now.speed, 1e-8);
+  EXPECT_LE(now.episode.pose, 1e-7);
+  EXPECT_LE(now.episode.velocity, 3e-7);
+  EXPECT_LE(now.speed, 3e-9);
   EXPECT_LE(now.one_step.joints, 0.0);
-  EXPECT_LE(now.one_step.pose, 1e-13);
-  EXPECT_LE(now.one_step.velocity, 5e-13);
-  // Measured against the reference data: episodes joints 0, pose 1.3e-8, velocities 5.6e-8,
-  // speed 4.9e-10; one step joints 0, pose 8.9e-16, velocities 7.3e-15 (DART's path now: 1.4e-9,
+  EXPECT_LE(now.one_step.pose, 5e-14);
+  EXPECT_LE(now.one_step.velocity, 2e-13);
+  // Measured against the reference data: episodes joints 0, pose 8.6e-9, velocities 3.7e-8,
+  // speed 3.3e-10; one step joints 0, pose 3.3e-16, velocities 4.4e-15 (DART's path now: 1.4e-9,
   // 4.1e-8 and 3.6e-10 on episodes, test_hexapod_prior_reference).
   const CaseDeviations data = compare(rigid, load_reference(), "rigid - data");
   EXPECT_LE(data.episode.joints, 1e-12);
@@ -345,8 +344,8 @@ TEST(HexapodRigidStep, ReferenceCasesMatchDartAndTheReferenceData) {
   EXPECT_LE(data.episode.velocity, 1e-6);
   EXPECT_LE(data.speed, 1e-8);
   EXPECT_LE(data.one_step.joints, 1e-12);
-  EXPECT_LE(data.one_step.pose, 1e-13);
-  EXPECT_LE(data.one_step.velocity, 5e-13);
+  EXPECT_LE(data.one_step.pose, 3e-14);
+  EXPECT_LE(data.one_step.velocity, 2e-13);
 }
 
 // The rigid step's own code does not touch the heap: ten physics steps without contacts (the
