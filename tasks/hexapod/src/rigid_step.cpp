@@ -107,6 +107,105 @@ Eigen::Vector6d solve6(const Eigen::Matrix6d& l, const Eigen::Vector6d& f) {
   return x;
 }
 
+// Spatial algebra of DART's conventions (twists and wrenches as [angular; linear] in a body's
+// frame), inlined: what dart::math::AdInvT, dAdInvT, ad and dad compute.
+// The twist V of a parent frame seen from a child frame at pose t in it: [R^T w; R^T (v + w x p)].
+inline Eigen::Vector6d ad_inv_t(const Eigen::Isometry3d& t, const Eigen::Vector6d& v) {
+  Eigen::Vector6d out;
+  const Eigen::Matrix3d& r = t.linear();
+  const Eigen::Vector3d w = v.head<3>();
+  const Eigen::Vector3d lin = v.tail<3>() + w.cross(t.translation());
+  out.head<3>().noalias() = r.transpose() * w;
+  out.tail<3>().noalias() = r.transpose() * lin;
+  return out;
+}
+
+// The wrench F of a child frame at pose t, expressed in the parent frame: [R n + p x R f; R f].
+inline Eigen::Vector6d dad_inv_t(const Eigen::Isometry3d& t, const Eigen::Vector6d& f) {
+  Eigen::Vector6d out;
+  const Eigen::Matrix3d& r = t.linear();
+  out.tail<3>().noalias() = r * f.tail<3>();
+  out.head<3>().noalias() = r * f.head<3>();
+  out.head<3>() += t.translation().cross(out.tail<3>());
+  return out;
+}
+
+// ad(V, W) = [w1 x w2; w1 x v2 + v1 x w2]: the velocity-product acceleration.
+inline Eigen::Vector6d ad(const Eigen::Vector6d& a, const Eigen::Vector6d& b) {
+  Eigen::Vector6d out;
+  out.head<3>() = a.head<3>().cross(b.head<3>());
+  out.tail<3>() = a.head<3>().cross(b.tail<3>()) + a.tail<3>().cross(b.head<3>());
+  return out;
+}
+
+// dad(V, F) = ad(V)^T F = [n x w + f x v; f x w]: the dual (force) version.
+inline Eigen::Vector6d dad(const Eigen::Vector6d& v, const Eigen::Vector6d& f) {
+  Eigen::Vector6d out;
+  out.head<3>() = f.head<3>().cross(v.head<3>()) + f.tail<3>().cross(v.tail<3>());
+  out.tail<3>() = f.tail<3>().cross(v.head<3>());
+  return out;
+}
+
+// a * b for rigid transforms, written out (Eigen's Isometry product goes through a generic 4 x 4
+// block product): each entry summed in the same order, so the result has the same bits.
+inline Eigen::Isometry3d compose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  Eigen::Isometry3d out;
+  const Eigen::Matrix3d& ra = a.linear();
+  const Eigen::Matrix3d& rb = b.linear();
+  const Eigen::Vector3d& tb = b.translation();
+  Eigen::Matrix4d& m = out.matrix();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j)
+      m(i, j) = ra(i, 0) * rb(0, j) + ra(i, 1) * rb(1, j) + ra(i, 2) * rb(2, j);
+    m(i, 3) = (ra(i, 0) * tb[0] + ra(i, 1) * tb[1] + ra(i, 2) * tb[2]) + a.translation()[i];
+  }
+  m.row(3) << 0, 0, 0, 1;
+  return out;
+}
+
+// A rigid body's (or a rigidly attached subtree's) spatial inertia about a frame's origin, in that
+// frame: mass m, first moment h = m c (c the centre of mass) and rotational inertia about the
+// origin; as a 6 x 6 matrix (DART's order: angular, linear) [[rot, s [h]x], [-s [h]x, m 1]] with
+// s = +1 or -1 as DART's Inertia::getSpatialTensor has it (found at construction).
+struct RigidInertia {
+  double m = 0;
+  Eigen::Vector3d h = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Zero();
+
+  // Adds `child`, given in a frame whose pose in this frame is t (rotation r, translation p):
+  // the parallel-axis theorem, rot += R rot_c R^T + m (|p|^2 1 - p p^T) + 2 (p.Rh) 1
+  // - Rh p^T - p Rh^T, h += R h_c + m p. The same as dart::math::transformInertia of the 6 x 6
+  // matrices, with a tenth of the arithmetic.
+  void add(const RigidInertia& child, const Eigen::Isometry3d& t) {
+    const Eigen::Matrix3d r = t.linear();
+    const Eigen::Vector3d p = t.translation();
+    const Eigen::Vector3d rh = r * child.h;
+    const double mc = child.m;
+    Eigen::Matrix3d rot_c;
+    rot_c.noalias() = r * child.rot * r.transpose();
+    const double diag = mc * p.squaredNorm() + 2.0 * p.dot(rh);
+    rot_c.diagonal().array() += diag;
+    rot_c.noalias() -= mc * p * p.transpose();
+    rot_c.noalias() -= rh * p.transpose();
+    rot_c.noalias() -= p * rh.transpose();
+    rot += rot_c;
+    h += rh + mc * p;
+    m += mc;
+  }
+
+  // The 6 x 6 matrix (sign s of the off-diagonal blocks: see the struct comment).
+  Eigen::Matrix6d matrix(double s) const {
+    Eigen::Matrix6d out;
+    Eigen::Matrix3d hx;
+    hx << 0, -h.z(), h.y(), h.z(), 0, -h.x(), -h.y(), h.x(), 0;
+    out.topLeftCorner<3, 3>() = rot;
+    out.topRightCorner<3, 3>() = s * hx;
+    out.bottomLeftCorner<3, 3>() = -s * hx;
+    out.bottomRightCorner<3, 3>() = m * Eigen::Matrix3d::Identity();
+    return out;
+  }
+};
+
 }  // namespace
 
 struct RigidRobotStep::Body {
@@ -124,6 +223,7 @@ struct RigidRobotStep::Body {
   Eigen::Vector6d v = Eigen::Vector6d::Zero(), partial_acc = Eigen::Vector6d::Zero();
   Eigen::Vector6d bias = Eigen::Vector6d::Zero();
   Eigen::Matrix6d art_inertia = Eigen::Matrix6d::Zero();
+  RigidInertia own, subtree;  // the body's, and its kinematic subtree's (BodyNode::mArtInertia)
 };
 
 struct RigidRobotStep::Shape {
@@ -193,6 +293,17 @@ RigidRobotStep::RigidRobotStep(const dart::simulation::WorldPtr& world,
     const dart::dynamics::BodyNode* bn = robot->getBodyNode(i);
     Body& b = bodies_[i];
     b.inertia = bn->getInertia().getSpatialTensor();
+    // The body's inertia as (m, h, rot), and the sign of the off-diagonal blocks.
+    const Eigen::Vector3d h = bn->getInertia().getMass() * bn->getInertia().getLocalCOM();
+    b.own.m = bn->getInertia().getMass();
+    b.own.h = h;
+    b.own.rot = b.inertia.topLeftCorner<3, 3>();
+    for (double sign : {1.0, -1.0}) {
+      if ((b.own.matrix(sign) - b.inertia).cwiseAbs().maxCoeff() <=
+          1e-12 * b.inertia.cwiseAbs().maxCoeff()) {
+        inertia_sign_ = sign;
+      }
+    }
     const Joint* joint = bn->getParentJoint();
     if (i == 0) {
       if (joint->getType() != dart::dynamics::FreeJoint::getStaticType() ||
@@ -228,6 +339,9 @@ RigidRobotStep::RigidRobotStep(const dart::simulation::WorldPtr& world,
     if (static_cast<int>(b.dof->getIndexInSkeleton()) != 5 + static_cast<int>(leg_dofs_.size()))
       throw InvalidArgument("RigidRobotStep: leg dofs must follow the bodies' order");
   }
+
+  if (inertia_sign_ == 0)
+    throw InvalidArgument("RigidRobotStep: unexpected layout of DART's spatial inertia");
 
   // Collision shapes, in the order DART's collision group holds them (the skeleton's shape
   // nodes); DART's detector tests (ground, shape) pairs in that order.
@@ -311,8 +425,8 @@ void RigidRobotStep::kinematics() {
   root.t = root.t_rel;
   for (std::size_t i = 1; i < bodies_.size(); ++i) {
     Body& b = bodies_[i];
-    b.t_rel = b.parent_to_joint * dart::math::expAngular(b.axis * b.q);
-    b.t = bodies_[static_cast<std::size_t>(b.parent)].t * b.t_rel;
+    b.t_rel = compose(b.parent_to_joint, dart::math::expAngular(b.axis * b.q));
+    b.t = compose(bodies_[static_cast<std::size_t>(b.parent)].t, b.t_rel);
   }
 }
 
@@ -321,7 +435,7 @@ void RigidRobotStep::velocities() {
   bodies_[0].v = root_v_;
   for (std::size_t i = 1; i < bodies_.size(); ++i) {
     Body& b = bodies_[i];
-    b.v = dart::math::AdInvT(b.t_rel, bodies_[static_cast<std::size_t>(b.parent)].v) + b.s * b.dq;
+    b.v = ad_inv_t(b.t_rel, bodies_[static_cast<std::size_t>(b.parent)].v) + b.s * b.dq;
   }
 }
 
@@ -329,25 +443,29 @@ void RigidRobotStep::velocities() {
 void RigidRobotStep::forward_dynamics() {
   for (std::size_t i = 1; i < bodies_.size(); ++i) {
     Body& b = bodies_[i];
-    b.partial_acc = dart::math::ad(b.v, b.s * b.dq);
+    b.partial_acc = ad(b.v, b.s * b.dq);
   }
   bodies_[0].partial_acc.setZero();
   for (std::size_t k = bodies_.size(); k-- > 0;) {
     Body& b = bodies_[k];
     // BodyNode::updateArtInertia: the child's inertia added through its kinematic joint.
-    b.art_inertia = b.inertia;
+    b.subtree = b.own;
     for (int c : b.children) {
       const Body& ch = bodies_[static_cast<std::size_t>(c)];
-      b.art_inertia += dart::math::transformInertia(ch.t_rel.inverse(), ch.art_inertia);
+      b.subtree.add(ch.subtree, ch.t_rel);
     }
+    b.art_inertia = b.subtree.matrix(inertia_sign_);
     // BodyNode::updateBiasForce: Coriolis and gravity, then the children's bias forces with
     // their joints' prescribed accelerations.
-    const Eigen::Vector6d gravity_force = b.inertia * dart::math::AdInvRLinear(b.t, gravity_);
-    b.bias = -dart::math::dad(b.v, b.inertia * b.v) - gravity_force;
+    Eigen::Vector6d gravity;  // [0; R^T g], AdInvRLinear
+    gravity.head<3>().setZero();
+    gravity.tail<3>().noalias() = b.t.linear().transpose() * gravity_;
+    const Eigen::Vector6d gravity_force = b.inertia * gravity;
+    b.bias = -dad(b.v, b.inertia * b.v) - gravity_force;
     for (int c : b.children) {
       const Body& ch = bodies_[static_cast<std::size_t>(c)];
       const Eigen::Vector6d beta = ch.bias + ch.art_inertia * (ch.partial_acc + ch.s * ch.ddq);
-      b.bias += dart::math::dAdInvT(ch.t_rel, beta);
+      b.bias += dad_inv_t(ch.t_rel, beta);
     }
     // Joint::updateTotalForce of a kinematic joint: the VELOCITY actuator's acceleration reaches
     // the command in one step; a LOCKED joint stops.

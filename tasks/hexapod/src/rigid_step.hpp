@@ -118,6 +118,7 @@ class RigidRobotStep {
 
   dart::dynamics::SkeletonPtr robot_;
   double dt_ = 0.01;
+  double inertia_sign_ = 0;  // sign of DART's spatial inertia's off-diagonal blocks (+-1)
   Eigen::Vector3d gravity_;
   std::vector<Body> bodies_;
   std::vector<Shape> shapes_;
