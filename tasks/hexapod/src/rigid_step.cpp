@@ -193,6 +193,16 @@ struct RigidInertia {
     m += mc;
   }
 
+  // The 6 x 6 matrix times x = [w; v]: [rot w + s h x v; -s h x w + m v].
+  Eigen::Vector6d apply(double s, const Eigen::Vector6d& x) const {
+    Eigen::Vector6d out;
+    const Eigen::Vector3d w = x.head<3>(), v = x.tail<3>();
+    out.head<3>().noalias() = rot * w;
+    out.head<3>() += s * h.cross(v);
+    out.tail<3>() = m * v - s * h.cross(w);
+    return out;
+  }
+
   // The 6 x 6 matrix (sign s of the off-diagonal blocks: see the struct comment).
   Eigen::Matrix6d matrix(double s) const {
     Eigen::Matrix6d out;
@@ -222,7 +232,6 @@ struct RigidRobotStep::Body {
   Eigen::Isometry3d t_rel = Eigen::Isometry3d::Identity(), t = Eigen::Isometry3d::Identity();
   Eigen::Vector6d v = Eigen::Vector6d::Zero(), partial_acc = Eigen::Vector6d::Zero();
   Eigen::Vector6d bias = Eigen::Vector6d::Zero();
-  Eigen::Matrix6d art_inertia = Eigen::Matrix6d::Zero();
   RigidInertia own, subtree;  // the body's, and its kinematic subtree's (BodyNode::mArtInertia)
 };
 
@@ -454,17 +463,15 @@ void RigidRobotStep::forward_dynamics() {
       const Body& ch = bodies_[static_cast<std::size_t>(c)];
       b.subtree.add(ch.subtree, ch.t_rel);
     }
-    b.art_inertia = b.subtree.matrix(inertia_sign_);
-    // BodyNode::updateBiasForce: Coriolis and gravity, then the children's bias forces with
-    // their joints' prescribed accelerations.
-    Eigen::Vector6d gravity;  // [0; R^T g], AdInvRLinear
-    gravity.head<3>().setZero();
-    gravity.tail<3>().noalias() = b.t.linear().transpose() * gravity_;
-    const Eigen::Vector6d gravity_force = b.inertia * gravity;
-    b.bias = -dad(b.v, b.inertia * b.v) - gravity_force;
+    // BodyNode::updateBiasForce: the Coriolis and centrifugal terms, then the children's bias
+    // forces with their joints' prescribed accelerations. Gravity, uniform, is added once at the
+    // root for the whole rigid robot below (DART adds each body's and carries it up: the same
+    // sum).
+    b.bias = -dad(b.v, b.own.apply(inertia_sign_, b.v));
     for (int c : b.children) {
       const Body& ch = bodies_[static_cast<std::size_t>(c)];
-      const Eigen::Vector6d beta = ch.bias + ch.art_inertia * (ch.partial_acc + ch.s * ch.ddq);
+      const Eigen::Vector6d beta =
+          ch.bias + ch.subtree.apply(inertia_sign_, ch.partial_acc + ch.s * ch.ddq);
       b.bias += dad_inv_t(ch.t_rel, beta);
     }
     // Joint::updateTotalForce of a kinematic joint: the VELOCITY actuator's acceleration reaches
@@ -480,8 +487,13 @@ void RigidRobotStep::forward_dynamics() {
   }
   // The root (a dynamic FreeJoint with identity Jacobian): a = AI^-1 (0 - bias), with AI's
   // Cholesky factor (DART inverts AI; the same to round-off).
-  root_factor_ = cholesky6(bodies_[0].art_inertia);
-  const Eigen::Vector6d total_force = -bodies_[0].bias;
+  Body& root = bodies_[0];
+  Eigen::Vector6d gravity;  // [0; R^T g] (AdInvRLinear): gravity's acceleration in the root frame
+  gravity.head<3>().setZero();
+  gravity.tail<3>().noalias() = root.t.linear().transpose() * gravity_;
+  root.bias -= root.subtree.apply(inertia_sign_, gravity);
+  root_factor_ = cholesky6(root.subtree.matrix(inertia_sign_));
+  const Eigen::Vector6d total_force = -root.bias;
   root_a_ = solve6(root_factor_, total_force);
 }
 
@@ -505,8 +517,14 @@ int RigidRobotStep::collide() {
   const Eigen::Vector3d half_ground = 0.5 * ground_size_;
   for (std::size_t k = 0; k < shapes_.size(); ++k) {
     const Shape& s = shapes_[k];
-    const Eigen::Isometry3d tf = bodies_[static_cast<std::size_t>(s.body)].t * s.rel;
-    if (tf.translation().z() - s.bound > ground_top_ + kHeightMargin) continue;
+    // The shape's height first (the same sum as its transform's), the whole transform if low.
+    const Eigen::Isometry3d& body_tf = bodies_[static_cast<std::size_t>(s.body)].t;
+    const Eigen::Vector3d& r = s.rel.translation();
+    const double z = (body_tf.linear()(2, 0) * r[0] + body_tf.linear()(2, 1) * r[1] +
+                      body_tf.linear()(2, 2) * r[2]) +
+                     body_tf.translation()[2];
+    if (z - s.bound > ground_top_ + kHeightMargin) continue;
+    const Eigen::Isometry3d tf = compose(body_tf, s.rel);
     if (s.sphere) {
       // DART's collideBoxSphere(ground, sphere): the sphere centre clipped to the box.
       const Eigen::Vector3d c0 = tf.translation();

@@ -216,7 +216,7 @@ TEST(HexapodRigidStep, OnePhysicsStepFromRandomStatesMatchesDart) {
 // One control step (10 physics steps) from the same random states and from recorded states of
 // the "real" robot (the onestep cases of the reference data).
 TEST(HexapodRigidStep, OneControlStepMatchesDart) {
-  // Measured (400 random and 320 recorded states): joints 0, pose 1.5e-10, velocities 4.0e-9.
+  // Measured (400 random and 320 recorded states): joints 0, pose 1.7e-10, velocities 4.0e-9.
   constexpr double kJoints = 0.0, kPose = 3e-9, kVelocity = 1e-7;
   Rng rng(5);
   Deviation dev;
@@ -325,8 +325,8 @@ TEST(HexapodRigidStep, ReferenceCasesMatchDartAndTheReferenceData) {
   ASSERT_EQ(dart.size(), rigid.size());
   std::map<std::string, Eigen::MatrixXd> dart_now;
   for (const auto& c : dart) dart_now[c.name] = c.rows;
-  // Measured against DART now: episodes joints 0, pose 1.2e-9 m or rad, velocities 5.3e-9, the
-  // walking speed 4.7e-11 m/s; one step joints 0, pose 6.7e-16, velocities 3.1e-15.
+  // Measured against DART now: episodes joints 0, pose 2.9e-9 m or rad, velocities 1.2e-8, the
+  // walking speed 1.1e-10 m/s; one step joints 0, pose 6.7e-16, velocities 3.1e-15.
   const CaseDeviations now = compare(rigid, dart_now, "rigid - DART");
   EXPECT_LE(now.episode.joints, 0.0);
   EXPECT_LE(now.episode.pose, 1e-7);
@@ -335,8 +335,8 @@ TEST(HexapodRigidStep, ReferenceCasesMatchDartAndTheReferenceData) {
   EXPECT_LE(now.one_step.joints, 0.0);
   EXPECT_LE(now.one_step.pose, 5e-14);
   EXPECT_LE(now.one_step.velocity, 2e-13);
-  // Measured against the reference data: episodes joints 0, pose 8.5e-9, velocities 3.7e-8,
-  // speed 3.2e-10; one step joints 0, pose 4.4e-16, velocities 4.0e-15 (DART's path now: 1.4e-9,
+  // Measured against the reference data: episodes joints 0, pose 6.6e-9, velocities 2.8e-8,
+  // speed 2.5e-10; one step joints 0, pose 3.3e-16, velocities 7.1e-15 (DART's path now: 1.4e-9,
   // 4.1e-8 and 3.6e-10 on episodes, test_hexapod_prior_reference).
   const CaseDeviations data = compare(rigid, load_reference(), "rigid - data");
   EXPECT_LE(data.episode.joints, 1e-12);
