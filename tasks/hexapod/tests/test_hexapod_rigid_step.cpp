@@ -24,6 +24,7 @@
 #include <string>
 
 #include "contact_solver.hpp"
+#include "drops/core/errors.hpp"
 #include "drops/core/rng.hpp"
 #include "prior_reference_cases.hpp"
 #include "rigid_step.hpp"
@@ -396,13 +397,22 @@ TEST(HexapodRigidStep, StepAllocatesOnlyInsideDartsRoutines) {
   }
 }
 
-TEST(HexapodRigidStep, ServoActuationIsRejected) {
+TEST(HexapodRigidStep, ServoActuationAndDynamicJointsAreRefused) {
   PriorOptions o = rigid_options();
   o.actuation = Actuation::kServo;
   std::string why;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("kRigid"), std::string::npos) << why;
   EXPECT_TRUE(rigid_options().IsValid());
+  EXPECT_THROW(PriorSimulator(HexapodSpec{}, o), InvalidArgument);
+  // The step itself refuses a skeleton with dynamic (force-driven) leg joints.
+  PriorSimulator servo(HexapodSpec{}, real_simulator_defaults());
+  try {
+    RigidRobotStep step(servo.world(), servo.world()->getSkeleton(1));
+    ADD_FAILURE() << "no exception";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("VELOCITY or LOCKED"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
