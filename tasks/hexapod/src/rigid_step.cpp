@@ -2,8 +2,8 @@
 //
 // Each part follows what DART 6.12 computes for the prior's world; the DART function it stands
 // for is named in a comment (Skeleton::computeForwardDynamics, ContactConstraint, ...). The
-// semantics were read from DART's headers and checked numerically against a DART world step
-// (test_hexapod_rigid_step).
+// semantics were taken from DART's headers and public sources (see rigid_step.hpp) and checked
+// numerically against a DART world step (test_hexapod_rigid_step).
 
 #include "rigid_step.hpp"
 
@@ -49,6 +49,7 @@ constexpr double kTangentEpsilonSquared = 1e-12;
 constexpr double kCollisionEpsilon = 1e-6;
 // Initial capacity of the contact buffers (grown, with an allocation, when exceeded).
 constexpr int kInitialContacts = 48;
+constexpr double kPi = 3.14159265358979323846;
 
 // ContactConstraint::getTangentBasisMatrixODE with the default first friction direction (+z):
 // column 0 = the tangent turned a quarter turn about n, column 1 = the tangent.
@@ -64,7 +65,7 @@ Eigen::Matrix<double, 3, 2> tangent_basis(const Eigen::Vector3d& n) {
   }
   tangent.normalize();
   Eigen::Matrix<double, 3, 2> t;
-  t.col(0) = Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * M_PI, n)) * tangent;
+  t.col(0) = Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * kPi, n)) * tangent;
   t.col(1) = tangent;
   return t;
 }

@@ -97,7 +97,9 @@ enum class PriorEngine {
   /// same world and the same contact model as kDart, computed as one rigid body with prescribed
   /// joint motion, without DART's per-step machinery. Joint trajectories are kDart's to the bit;
   /// the body's state agrees to round-off, amplified by the contact dynamics over an episode
-  /// (docs/benchmarks.md, "A dedicated rigid-body step"). Requires Actuation::kVelocity.
+  /// (docs/benchmarks.md, "A dedicated rigid-body step"). Requires Actuation::kVelocity. The
+  /// skeleton in world() holds the state after every step(); the DART world's own clock
+  /// (World::getTime) does not advance (PriorSimulator::time() does).
   kRigid,
 };
 
