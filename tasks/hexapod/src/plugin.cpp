@@ -59,8 +59,8 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          kLegChoices, "-", "the prior family GP-MI and MI search exhaustively (the paper's 7)"});
     add({"hexapod.prior.engine", "enum", "dart", 0, 0, {"dart", "rigid"}, "-",
          "how the prior simulator computes a physics step: dart (DART's world step) or rigid (a "
-         "dedicated step for the prior's kinematic legs, the same physics to round-off and about "
-         "5 times faster; docs/benchmarks.md)"});
+         "dedicated step for the prior's kinematic legs, the same physics to round-off; the prior "
+         "alone about 7 times faster; docs/benchmarks.md)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
     add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
