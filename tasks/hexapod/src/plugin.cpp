@@ -57,10 +57,10 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          "4 mid-right, 5 rear-right)"});
     add({"hexapod.prior.choices", "names", "[intact, leg0, leg1, leg2, leg3, leg4, leg5]", 0, 0,
          kLegChoices, "-", "the prior family GP-MI and MI search exhaustively (the paper's 7)"});
-    add({"hexapod.prior.engine", "enum", "dart", 0, 0, {"dart", "rigid"}, "-",
-         "how the prior simulator computes a physics step: dart (DART's world step) or rigid (a "
-         "dedicated step for the prior's kinematic legs, the same physics to round-off; the prior "
-         "alone about 7 times faster; docs/benchmarks.md)"});
+    add({"hexapod.prior.engine", "enum", "rigid", 0, 0, {"dart", "rigid"}, "-",
+         "how the prior simulator computes a physics step: rigid (a dedicated step for the "
+         "prior's kinematic legs, DART's physics to round-off, the prior alone about 7 times "
+         "faster; docs/benchmarks.md) or dart (DART's world step, as before 2026-11-24)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
     add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",

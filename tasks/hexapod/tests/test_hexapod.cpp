@@ -394,7 +394,7 @@ TEST(HexapodPrior, InterfaceAndPhiChecks) {
 
 TEST(HexapodPrior, EvaluateIsOneSimulatorStepFromX) {
   HexapodPrior prior;
-  PriorSimulator sim;
+  PriorSimulator sim({}, prior.options().simulator);  // the prior's own engine (rigid by default)
   const Eigen::VectorXd x = walk(sim, tripod_params(), 8);
   GaitController ctrl;
   ctrl.set_params(tripod_params());

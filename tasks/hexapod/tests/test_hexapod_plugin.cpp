@@ -93,7 +93,7 @@ TEST(HexapodPlugin, PriorEngineKeyChoosesThePhysicsStep) {
     EXPECT_NE(prior, nullptr);
     return prior ? prior->options().simulator.engine : hexapod::PriorEngine::kDart;
   };
-  EXPECT_EQ(engine({}), hexapod::PriorEngine::kDart);  // default: unchanged for existing users
+  EXPECT_EQ(engine({}), hexapod::PriorEngine::kRigid);  // default: the dedicated step
   EXPECT_EQ(engine({"hexapod.prior.engine=rigid"}), hexapod::PriorEngine::kRigid);
   EXPECT_EQ(engine({"hexapod.prior.engine=dart"}), hexapod::PriorEngine::kDart);
   EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.engine=fast"}).find("hexapod.prior.engine"),

@@ -102,9 +102,19 @@ struct StateGuardCounts {
   long clamped = 0;      ///< states repaired under kClamp
 };
 
+/// The prior simulators' default settings: settings.md §6 with the dedicated rigid-body step
+/// (PriorEngine::kRigid: DART's physics to round-off, the prior alone about 7 times faster;
+/// docs/benchmarks.md, "A dedicated rigid-body step"). Thread-safe.
+inline PriorOptions prior_simulator_defaults() {
+  PriorOptions o;
+  o.engine = PriorEngine::kRigid;
+  return o;
+}
+
 /// Options of HexapodPrior.
 struct HexapodPriorOptions {
-  PriorOptions simulator;   ///< settings of every prior simulator (settings.md §6 defaults)
+  /// Settings of every prior simulator (settings.md §6; the rigid-body step by default).
+  PriorOptions simulator = prior_simulator_defaults();
   int pool_capacity = 0;    ///< simulators per prior (per removed-leg value); 0: hardware threads
   StateGuardOptions guard;  ///< validation of x before it enters the simulator
   /// True when simulator options are valid and pool_capacity >= 0; else false with *why.
