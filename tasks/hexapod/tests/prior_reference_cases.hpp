@@ -17,6 +17,10 @@
 /// of Rng(7)), random11 (uniform gait parameters of Rng(11): large amplitudes, some fall); phi in
 /// {-1 (intact), 5, 0}.
 
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -106,6 +110,36 @@ inline std::vector<ReferenceCase> prior_reference_cases(const PriorOptions& opti
     Rng rng(1);
     cases.push_back({"real tripod " + std::to_string(leg),
                      rollout::run_episode(task, real, policy, rng).states});
+  }
+  return cases;
+}
+
+/// Reads a file written by make_prior_reference (e.g. tests/data/prior_reference.txt): each case
+/// as "<name words> <rows> <cols>" followed by rows x cols numbers; lines starting with '#' are
+/// comments, the last of which goes to *header when header is not null. Throws
+/// std::runtime_error when the file cannot be opened. Thread-safe.
+inline std::map<std::string, Eigen::MatrixXd> read_prior_reference(const std::string& path,
+                                                                   std::string* header = nullptr) {
+  std::ifstream in(path);
+  if (!in.good()) throw std::runtime_error("cannot read " + path);
+  std::map<std::string, Eigen::MatrixXd> cases;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    if (line[0] == '#') {
+      if (header != nullptr) *header = line;
+      continue;
+    }
+    std::istringstream words(line);
+    std::vector<std::string> w;
+    for (std::string s; words >> s;) w.push_back(s);
+    const int rows = std::stoi(w[w.size() - 2]), cols = std::stoi(w.back());
+    std::string name = w[0];
+    for (std::size_t i = 1; i + 2 < w.size(); ++i) name += " " + w[i];
+    Eigen::MatrixXd m(rows, cols);
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c) in >> m(r, c);
+    cases[name] = m;
   }
   return cases;
 }

@@ -255,24 +255,7 @@ TEST(HexapodRigidStep, OneControlStepMatchesDart) {
 }
 
 std::map<std::string, Eigen::MatrixXd> load_reference() {
-  std::ifstream in(std::string(DROPS_HEXAPOD_TEST_DATA) + "/prior_reference.txt");
-  EXPECT_TRUE(in.good()) << "cannot read " << DROPS_HEXAPOD_TEST_DATA << "/prior_reference.txt";
-  std::map<std::string, Eigen::MatrixXd> cases;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream words(line);  // "<name words> <rows> <cols>"
-    std::vector<std::string> w;
-    for (std::string s; words >> s;) w.push_back(s);
-    const int rows = std::stoi(w[w.size() - 2]), cols = std::stoi(w.back());
-    std::string name = w[0];
-    for (std::size_t i = 1; i + 2 < w.size(); ++i) name += " " + w[i];
-    Eigen::MatrixXd m(rows, cols);
-    for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c) in >> m(r, c);
-    cases[name] = m;
-  }
-  return cases;
+  return testing::read_prior_reference(std::string(DROPS_HEXAPOD_TEST_DATA) + "/prior_reference.txt");
 }
 
 struct CaseDeviations {
