@@ -21,38 +21,15 @@
 #include "drops/model/dynamics_model.hpp"
 #include "drops/hexapod/prior.hpp"
 #include "drops/hexapod/task.hpp"
+#include "hexapod_run_data.hpp"
 
 namespace {
 
 using drops::Transition;
 using drops::VectorXd;
 namespace hx = drops::hexapod;
-
-// Transitions of one episode's real.csv (columns t, the 48 state entries, the 18 actions, ...),
-// read with the run-directory reader.
-std::vector<Transition> read_transitions(const std::string& path) {
-  const drops::experiment::TrajectoryTable table = drops::experiment::read_trajectory_csv(path);
-  if (table.columns.size() < 1 + static_cast<std::size_t>(hx::kStateDim + hx::kNumJoints))
-    throw drops::InvalidArgument(path + ": " + std::to_string(table.columns.size()) +
-                                 " columns, expected at least 67");
-  std::vector<Transition> out;
-  for (std::size_t i = 0; i + 1 < table.rows.size(); ++i) {
-    const auto& r = table.rows[i];
-    const auto& next = table.rows[i + 1];
-    Transition t;
-    t.x = Eigen::Map<const VectorXd>(r.data() + 1, hx::kStateDim);
-    t.u = Eigen::Map<const VectorXd>(r.data() + 1 + hx::kStateDim, hx::kNumJoints);
-    t.dx = Eigen::Map<const VectorXd>(next.data() + 1, hx::kStateDim) - t.x;
-    out.push_back(std::move(t));
-  }
-  return out;
-}
-
-std::string episode_file(const std::string& dir, int episode) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "/episodes/%03d/real.csv", episode);
-  return dir + buf;
-}
+using drops::tools::episode_file;
+using drops::tools::read_transitions;
 
 }  // namespace
 
@@ -69,12 +46,7 @@ int main(int argc, char** argv) {
     const std::string dir = argv[1];
     const int k = std::atoi(argv[2]);
     const int leg = std::atoi(argv[3]);
-    if (k < 1) throw drops::InvalidArgument("K must be >= 1");
-    std::vector<Transition> train;
-    for (int e = 1; e <= k; ++e) {
-      const std::vector<Transition> t = read_transitions(episode_file(dir, e));
-      train.insert(train.end(), t.begin(), t.end());
-    }
+    const std::vector<Transition> train = drops::tools::read_episodes(dir, k);
     const std::vector<Transition> test = read_transitions(episode_file(dir, k + 1));
 
     auto task = std::make_shared<hx::HexapodTask>();
@@ -84,15 +56,8 @@ int main(int argc, char** argv) {
     prior->check_phi(VectorXd::Constant(1, leg));
     drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
     fixed.values[0] = leg;  // gp_prior keeps the starting values
-    drops::model::ModelOptions options;
-    options.type = drops::model::ModelType::kGpPrior;
-    options.rprop.tolerance = 1e-3;
-    if (argc == 7) {
-      if (std::string(argv[4]) != "walls") throw drops::InvalidArgument("expected 'walls'");
-      options.rprop.penalty = true;
-      options.rprop.max_length_scale_ratio = std::atof(argv[5]);
-      options.rprop.max_snr = std::atof(argv[6]);
-    }
+    const drops::model::ModelOptions options =
+        drops::tools::gp_prior_options(argc == 7 ? argv + 4 : nullptr);
     auto model = drops::model::make_model(options, task, prior, fixed);
     model->learn(train);
 
