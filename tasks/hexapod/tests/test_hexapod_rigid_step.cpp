@@ -34,21 +34,17 @@
 // malloc and free themselves, and at ASan's start-up glibc's dlerror string would come from this
 // malloc (glibc's heap) and go to ASan's free, which aborts ("CHECK failed: tsd_key_inited"); the
 // allocation test is skipped there.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define DROPS_COUNTS_ALLOCATIONS 0
 namespace {
 bool g_count_allocations = false;
 long g_allocations = 0;
 }  // namespace
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define DROPS_COUNTS_ALLOCATIONS 0
 #else
 #define DROPS_COUNTS_ALLOCATIONS 1
 extern "C" void* __libc_malloc(std::size_t);
 extern "C" void* __libc_calloc(std::size_t, std::size_t);
 extern "C" void* __libc_realloc(void*, std::size_t);
-namespace {
-bool g_count_allocations = false;
-long g_allocations = 0;
-}  // namespace
 extern "C" void* malloc(std::size_t n) {
   if (g_count_allocations) ++g_allocations;
   return __libc_malloc(n);
