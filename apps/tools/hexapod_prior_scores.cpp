@@ -1,14 +1,16 @@
 // hexapod_prior_scores: what GP-MI sees when it chooses a prior on a hexapod run's data
 // (docs/hexapod.md, "Leg identification").
 //
-//   build/apps/tools/hexapod_prior_scores RUN_DIR K [walls RATIO SNR]
+//   build/apps/tools/hexapod_prior_scores RUN_DIR K [walls RATIO SNR] [friction MU]
 //
 // For each prior of the family (intact, leg 0..5 removed), fits a gp_prior model with that prior
 // on the measured transitions of episodes 1..K of RUN_DIR (episodes/NNN/real.csv) and prints the
 // log marginal likelihoods of its 48 output GPs, combined four ways: the paper's score
 // log sum_i exp(l_i) (GP-MI's default), sum_i l_i (model.gp_mi.score: sum_log_likelihoods), and
 // sum_i l_i over the 36 joint outputs and over the 12 body outputs. "walls RATIO SNR" enables
-// PILCO's soft walls in the kernel fits, as `drops run` on the hexapod (10 500). A diagnostic:
+// PILCO's soft walls in the kernel fits, as `drops run` on the hexapod (10 500). "friction MU"
+// gives the priors' ground this Coulomb coefficient (hexapod.prior.ground_friction; default 1,
+// the "real" robot's floor is 0.4). A diagnostic:
 // full kernel fits per prior (GP-MI's nested search does the same fits warm-started), no timing.
 #include <cstdio>
 #include <cstdlib>
@@ -25,9 +27,12 @@
 
 int main(int argc, char** argv) {
   namespace hx = drops::hexapod;
-  if (argc != 3 && argc != 6) {
+  const bool walls = argc >= 6 && std::string(argv[3]) == "walls";
+  const int friction_at = walls ? 6 : 3;
+  const bool friction = argc == friction_at + 2 && std::string(argv[friction_at]) == "friction";
+  if (argc != friction_at + (friction ? 2 : 0)) {
     std::fprintf(stderr,
-                 "usage: %s RUN_DIR K [walls RATIO SNR]\n"
+                 "usage: %s RUN_DIR K [walls RATIO SNR] [friction MU]\n"
                  "  GP-MI's scores of the 7 removed-leg priors on episodes 1..K of RUN_DIR\n",
                  argv[0]);
     return 2;
@@ -37,7 +42,8 @@ int main(int argc, char** argv) {
     const int k = std::atoi(argv[2]);
     const std::vector<drops::Transition> data = drops::tools::read_episodes(dir, k);
     const drops::model::ModelOptions options =
-        drops::tools::gp_prior_options(argc == 6 ? argv + 3 : nullptr);
+        drops::tools::gp_prior_options(walls ? argv + 3 : nullptr);
+    const double mu = friction ? std::atof(argv[friction_at + 1]) : 1.0;
     std::printf("%zu transitions (episodes 1-%d of %s)\n", data.size(), k, dir.c_str());
     std::printf("%-7s | %14s | %12s | %12s | %12s\n", "prior", "log sum exp l", "sum l",
                 "sum l joints", "sum l body");
@@ -45,6 +51,7 @@ int main(int argc, char** argv) {
       auto task = std::make_shared<hx::HexapodTask>();
       hx::HexapodPriorOptions prior_options;
       prior_options.pool_capacity = 1;
+      prior_options.simulator.ground_friction = mu;
       auto prior = std::make_shared<hx::HexapodPrior>(prior_options);
       drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
       fixed.values[0] = leg;  // gp_prior keeps the starting values

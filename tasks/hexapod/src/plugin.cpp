@@ -61,6 +61,10 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          "how the prior simulator computes a physics step: rigid (a dedicated step for the "
          "prior's kinematic legs, DART's physics to round-off, the prior alone about 7 times "
          "faster; docs/benchmarks.md) or dart (DART's world step, as before 2026-11-24)"});
+    add({"hexapod.prior.ground_friction", "double", "1", 0.05, 2, {}, "-",
+         "Coulomb friction coefficient of the prior's ground (1: DART's default, the prior of "
+         "the paper's runs here until 2026-11-24; the \"real\" robot's floor is 0.4, "
+         "docs/hexapod.md)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
     add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
@@ -162,6 +166,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     mo.pool_capacity = static_cast<int>(get_int(st, "threads"));  // 0: hardware threads
     mo.simulator.engine =
         st.at("hexapod.prior.engine") == "rigid" ? PriorEngine::kRigid : PriorEngine::kDart;
+    mo.simulator.ground_friction = get_double(st, "hexapod.prior.ground_friction");
     auto prior = std::make_shared<HexapodPrior>(mo);
     s.prior = prior;
 
