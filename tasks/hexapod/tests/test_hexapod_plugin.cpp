@@ -100,6 +100,42 @@ TEST(HexapodPlugin, PriorEngineKeyChoosesThePhysicsStep) {
             std::string::npos);
 }
 
+// hexapod.prior.ground_friction reaches the prior's world: 1 (DART's default) unless set; the
+// same steps from the start state, every hip swung forward 0.6 rad and back while the feet carry
+// the body, end elsewhere on a floor of 0.4 than on one of 1 (the feet slip); out of range fails.
+TEST(HexapodPlugin, PriorGroundFrictionKeySetsThePriorsFloor) {
+  auto end_state = [](const std::vector<std::string>& ov, double* friction) {
+    const auto e = make("task: hexapod\n", ov);
+    const auto prior = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
+    EXPECT_NE(prior, nullptr);
+    if (prior == nullptr) return Eigen::VectorXd();
+    *friction = prior->options().simulator.ground_friction;
+    Eigen::VectorXd x = e.setup.task->initial_state();
+    Eigen::VectorXd dx(x.size());
+    const Eigen::VectorXd phi = Eigen::VectorXd::Constant(1, -1.0);  // intact
+    for (int t = 0; t < 10; ++t) {
+      Eigen::VectorXd u = Eigen::VectorXd::Zero(hexapod::kNumJoints);
+      for (int k = 0; k < hexapod::kNumLegs; ++k) u[3 * k] = (t % 2 == 0 ? 0.6 : -0.6);
+      prior->evaluate(x, u, phi, dx);
+      x += dx;
+    }
+    return x;
+  };
+  double one = 0, slippery = 0;
+  const Eigen::VectorXd a = end_state({}, &one);
+  const Eigen::VectorXd b = end_state({"hexapod.prior.ground_friction=0.4"}, &slippery);
+  EXPECT_DOUBLE_EQ(one, 1.0);
+  EXPECT_DOUBLE_EQ(slippery, 0.4);
+  ASSERT_EQ(a.size(), 48);
+  ASSERT_EQ(b.size(), 48);
+  ASSERT_TRUE(a.allFinite() && b.allFinite());
+  // Body position and yaw (x[36..41]) move differently; joint angles follow the same targets.
+  EXPECT_GT((a.segment<6>(36) - b.segment<6>(36)).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.ground_friction=0"})
+                .find("hexapod.prior.ground_friction"),
+            std::string::npos);
+}
+
 TEST(HexapodPlugin, DamageAndPriorChoices) {
   const auto e = make(
       "task: hexapod\nhexapod:\n  damage: {removed_leg: leg5, blocked_leg: leg1, blocked_joint: 2}\n"
