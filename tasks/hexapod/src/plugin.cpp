@@ -62,9 +62,13 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          "prior's kinematic legs, DART's physics to round-off, the prior alone about 7 times "
          "faster; docs/benchmarks.md) or dart (DART's world step, as before 2026-11-24)"});
     add({"hexapod.prior.ground_friction", "double", "1", 0.05, 2, {}, "-",
-         "Coulomb friction coefficient of the prior's ground (1: DART's default, the prior of "
-         "the paper's runs here until 2026-11-24; the \"real\" robot's floor is 0.4, "
-         "docs/hexapod.md)"});
+         "Coulomb friction coefficient of the prior's ground (1: DART's default, that of every "
+         "result before this key; the \"real\" robot's floor is 0.4; "
+         "docs/results/hexapod.md)"});
+    add({"hexapod.prior.velocity_gain_period", "double", "3.141592653589793", 0.1, 1000, {}, "-",
+         "the prior's velocity actuators command (q_target - q) / (period * 0.01 s), clipped to "
+         "7 rad/s (settings.md: pi). Larger values make slower actuators, closer to the \"real\" "
+         "robot's torque-limited servos (docs/results/hexapod.md)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
     add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
@@ -167,6 +171,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     mo.simulator.engine =
         st.at("hexapod.prior.engine") == "rigid" ? PriorEngine::kRigid : PriorEngine::kDart;
     mo.simulator.ground_friction = get_double(st, "hexapod.prior.ground_friction");
+    mo.simulator.velocity_gain_period = get_double(st, "hexapod.prior.velocity_gain_period");
     auto prior = std::make_shared<HexapodPrior>(mo);
     s.prior = prior;
 

@@ -136,6 +136,39 @@ TEST(HexapodPlugin, PriorGroundFrictionKeySetsThePriorsFloor) {
             std::string::npos);
 }
 
+// hexapod.prior.velocity_gain_period reaches the prior's actuators: settings.md's pi to the bit by
+// default (so the key changes no earlier result); with 2 pi a joint target step of 0.05 rad (the
+// command stays below the 7 rad/s clip) is followed more slowly; out of range fails.
+TEST(HexapodPlugin, PriorVelocityGainPeriodKeySetsThePriorsActuators) {
+  auto first_step = [](const std::vector<std::string>& ov, double* period) {
+    const auto e = make("task: hexapod\n", ov);
+    const auto prior = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
+    EXPECT_NE(prior, nullptr);
+    if (prior == nullptr) return Eigen::VectorXd();
+    *period = prior->options().simulator.velocity_gain_period;
+    const Eigen::VectorXd x = e.setup.task->initial_state();
+    Eigen::VectorXd dx(x.size());
+    const Eigen::VectorXd u = Eigen::VectorXd::Constant(hexapod::kNumJoints, 0.05);
+    prior->evaluate(x, u, Eigen::VectorXd::Constant(1, -1.0), dx);
+    return dx;
+  };
+  double fast = 0, slow = 0;
+  const Eigen::VectorXd a = first_step({}, &fast);
+  const Eigen::VectorXd b = first_step({"hexapod.prior.velocity_gain_period=6.283185307179586"}, &slow);
+  EXPECT_EQ(fast, 3.14159265358979323846);  // bit-identical to settings.md's pi
+  EXPECT_DOUBLE_EQ(slow, 2 * 3.14159265358979323846);
+  ASSERT_EQ(a.size(), 48);
+  ASSERT_EQ(b.size(), 48);
+  // Hip of leg 0 (x[0]): each 10 ms physics step closes 1/period of the gap to the target, so over
+  // the 10 steps of a control step the joint reaches about 0.049 rad with pi and 0.041 with 2 pi.
+  EXPECT_GT(a[0], b[0] + 1e-3);
+  EXPECT_GT(b[0], 0.0);
+  EXPECT_LE(a[0], 0.05 + 1e-9);
+  EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.velocity_gain_period=0"})
+                .find("hexapod.prior.velocity_gain_period"),
+            std::string::npos);
+}
+
 TEST(HexapodPlugin, DamageAndPriorChoices) {
   const auto e = make(
       "task: hexapod\nhexapod:\n  damage: {removed_leg: leg5, blocked_leg: leg1, blocked_joint: 2}\n"
