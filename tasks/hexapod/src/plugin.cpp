@@ -65,9 +65,10 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          "Coulomb friction coefficient of the prior's ground (1: DART's default, that of every "
          "result before this key; the \"real\" robot's floor is 0.4; "
          "docs/results/hexapod.md)"});
-    add({"hexapod.prior.velocity_gain_period", "double", "3.141592653589793", 0.1, 1000, {}, "-",
+    add({"hexapod.prior.velocity_gain_period", "double", "3.141592653589793", 1, 1000, {}, "-",
          "the prior's velocity actuators command (q_target - q) / (period * 0.01 s), clipped to "
-         "7 rad/s (settings.md: pi). Larger values make slower actuators, closer to the \"real\" "
+         "7 rad/s (settings.md: pi; 1 closes the gap in one 10 ms step, below 1 would overshoot). "
+         "Larger values make slower actuators, closer to the \"real\" "
          "robot's torque-limited servos (docs/results/hexapod.md)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
