@@ -2,6 +2,10 @@
 // damage and its report labels.
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <memory>
+#include <stdexcept>
+
 #include "drops/core/errors.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/pendubot/plugin.hpp"
@@ -31,6 +35,26 @@ std::string error_of(const std::string& yaml, const std::vector<std::string>& ov
     return e.what();
   }
   return "";
+}
+// The HexapodPrior of a hexapod experiment; throws when the setup's prior is of another type.
+std::shared_ptr<const hexapod::HexapodPrior> prior_of(const experiment::Experiment& e) {
+  auto p = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
+  if (p == nullptr) throw std::logic_error("the hexapod setup's prior is not a HexapodPrior");
+  return p;
+}
+// The state after n control steps of the experiment's prior (intact, phi = -1) from the task's
+// start state with the joint targets u(t), t = 0..n-1 (18-D).
+Eigen::VectorXd prior_steps(const experiment::Experiment& e, int n,
+                            const std::function<Eigen::VectorXd(int)>& u) {
+  const auto prior = prior_of(e);
+  Eigen::VectorXd x = e.setup.task->initial_state();
+  Eigen::VectorXd dx(x.size());
+  const Eigen::VectorXd phi = Eigen::VectorXd::Constant(1, -1.0);
+  for (int t = 0; t < n; ++t) {
+    prior->evaluate(x, u(t), phi, dx);
+    x += dx;
+  }
+  return x;
 }
 }  // namespace
 
@@ -88,10 +112,7 @@ TEST(HexapodPlugin, TiltPenaltyKeySetsTheTippedReward) {
 
 TEST(HexapodPlugin, PriorEngineKeyChoosesThePhysicsStep) {
   auto engine = [](const std::vector<std::string>& ov) {
-    const auto e = make("task: hexapod\n", ov);
-    const auto prior = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
-    EXPECT_NE(prior, nullptr);
-    return prior ? prior->options().simulator.engine : hexapod::PriorEngine::kDart;
+    return prior_of(make("task: hexapod\n", ov))->options().simulator.engine;
   };
   EXPECT_EQ(engine({}), hexapod::PriorEngine::kRigid);  // default: the dedicated step
   EXPECT_EQ(engine({"hexapod.prior.engine=rigid"}), hexapod::PriorEngine::kRigid);
@@ -104,32 +125,21 @@ TEST(HexapodPlugin, PriorEngineKeyChoosesThePhysicsStep) {
 // same steps from the start state, every hip swung forward 0.6 rad and back while the feet carry
 // the body, end elsewhere on a floor of 0.4 than on one of 1 (the feet slip); out of range fails.
 TEST(HexapodPlugin, PriorGroundFrictionKeySetsThePriorsFloor) {
-  auto end_state = [](const std::vector<std::string>& ov, double* friction) {
-    const auto e = make("task: hexapod\n", ov);
-    const auto prior = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
-    EXPECT_NE(prior, nullptr);
-    if (prior == nullptr) return Eigen::VectorXd();
-    *friction = prior->options().simulator.ground_friction;
-    Eigen::VectorXd x = e.setup.task->initial_state();
-    Eigen::VectorXd dx(x.size());
-    const Eigen::VectorXd phi = Eigen::VectorXd::Constant(1, -1.0);  // intact
-    for (int t = 0; t < 10; ++t) {
-      Eigen::VectorXd u = Eigen::VectorXd::Zero(hexapod::kNumJoints);
-      for (int k = 0; k < hexapod::kNumLegs; ++k) u[3 * k] = (t % 2 == 0 ? 0.6 : -0.6);
-      prior->evaluate(x, u, phi, dx);
-      x += dx;
-    }
-    return x;
+  const auto swing = [](int t) {
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(hexapod::kNumJoints);
+    for (int k = 0; k < hexapod::kNumLegs; ++k) u[3 * k] = (t % 2 == 0 ? 0.6 : -0.6);
+    return u;
   };
-  double one = 0, slippery = 0;
-  const Eigen::VectorXd a = end_state({}, &one);
-  const Eigen::VectorXd b = end_state({"hexapod.prior.ground_friction=0.4"}, &slippery);
-  EXPECT_DOUBLE_EQ(one, 1.0);
-  EXPECT_DOUBLE_EQ(slippery, 0.4);
+  const auto one = make("task: hexapod\n");
+  const auto slippery = make("task: hexapod\n", {"hexapod.prior.ground_friction=0.4"});
+  EXPECT_DOUBLE_EQ(prior_of(one)->options().simulator.ground_friction, 1.0);
+  EXPECT_DOUBLE_EQ(prior_of(slippery)->options().simulator.ground_friction, 0.4);
+  const Eigen::VectorXd a = prior_steps(one, 10, swing);
+  const Eigen::VectorXd b = prior_steps(slippery, 10, swing);
   ASSERT_EQ(a.size(), 48);
   ASSERT_EQ(b.size(), 48);
   ASSERT_TRUE(a.allFinite() && b.allFinite());
-  // Body position and yaw (x[36..41]) move differently; joint angles follow the same targets.
+  // Body position and roll, pitch, yaw (x[36..41]) move differently.
   EXPECT_GT((a.segment<6>(36) - b.segment<6>(36)).cwiseAbs().maxCoeff(), 1e-3);
   EXPECT_NE(error_of("task: hexapod\n", {"hexapod.prior.ground_friction=0"})
                 .find("hexapod.prior.ground_friction"),
@@ -140,27 +150,21 @@ TEST(HexapodPlugin, PriorGroundFrictionKeySetsThePriorsFloor) {
 // default (so the key changes no earlier result); with 2 pi a joint target step of 0.05 rad (the
 // command stays below the 7 rad/s clip) is followed more slowly; out of range fails.
 TEST(HexapodPlugin, PriorVelocityGainPeriodKeySetsThePriorsActuators) {
-  auto first_step = [](const std::vector<std::string>& ov, double* period) {
-    const auto e = make("task: hexapod\n", ov);
-    const auto prior = std::dynamic_pointer_cast<const hexapod::HexapodPrior>(e.setup.prior);
-    EXPECT_NE(prior, nullptr);
-    if (prior == nullptr) return Eigen::VectorXd();
-    *period = prior->options().simulator.velocity_gain_period;
-    const Eigen::VectorXd x = e.setup.task->initial_state();
-    Eigen::VectorXd dx(x.size());
-    const Eigen::VectorXd u = Eigen::VectorXd::Constant(hexapod::kNumJoints, 0.05);
-    prior->evaluate(x, u, Eigen::VectorXd::Constant(1, -1.0), dx);
-    return dx;
-  };
-  double fast = 0, slow = 0;
-  const Eigen::VectorXd a = first_step({}, &fast);
-  const Eigen::VectorXd b = first_step({"hexapod.prior.velocity_gain_period=6.283185307179586"}, &slow);
-  EXPECT_EQ(fast, 3.14159265358979323846);  // bit-identical to settings.md's pi
-  EXPECT_DOUBLE_EQ(slow, 2 * 3.14159265358979323846);
+  const auto step = [](int) { return Eigen::VectorXd::Constant(hexapod::kNumJoints, 0.05); };
+  const auto fast = make("task: hexapod\n");
+  const auto slow =
+      make("task: hexapod\n", {"hexapod.prior.velocity_gain_period=6.283185307179586"});
+  EXPECT_EQ(prior_of(fast)->options().simulator.velocity_gain_period,
+            3.14159265358979323846);  // bit-identical to settings.md's pi
+  EXPECT_DOUBLE_EQ(prior_of(slow)->options().simulator.velocity_gain_period,
+                   2 * 3.14159265358979323846);
+  const Eigen::VectorXd a = prior_steps(fast, 1, step);
+  const Eigen::VectorXd b = prior_steps(slow, 1, step);
   ASSERT_EQ(a.size(), 48);
   ASSERT_EQ(b.size(), 48);
-  // Hip of leg 0 (x[0]): each 10 ms physics step closes 1/period of the gap to the target, so over
-  // the 10 steps of a control step the joint reaches about 0.049 rad with pi and 0.041 with 2 pi.
+  // Hip of leg 0 (x[0], 0 at the start): each 10 ms physics step closes 1/period of the gap to the
+  // target, so over the 10 steps of a control step the joint reaches about 0.049 rad with pi and
+  // 0.041 with 2 pi.
   EXPECT_GT(a[0], b[0] + 1e-3);
   EXPECT_GT(b[0], 0.0);
   EXPECT_LE(a[0], 0.05 + 1e-9);
