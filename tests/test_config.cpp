@@ -99,7 +99,12 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
   EXPECT_EQ(a.reevaluation_rollouts, d.reevaluation_rollouts);
   EXPECT_EQ(a.reevaluation_candidates, d.reevaluation_candidates);
   EXPECT_EQ(a.rollouts.batch, d.rollouts.batch);
+  EXPECT_EQ(a.rollouts.statistic, d.rollouts.statistic);
   EXPECT_EQ(a.predicted_rollouts, d.predicted_rollouts);
+  EXPECT_EQ(algo_of(settings("", {"rollouts.statistic=median"})).rollouts.statistic,
+            rollout::ReturnStatistic::kMedian);
+  const std::string m = error_of("", {"rollouts.statistic=mode"});
+  EXPECT_NE(m.find("mean, median"), std::string::npos) << m;
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {

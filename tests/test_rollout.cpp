@@ -2,7 +2,9 @@
 // the thread count.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 
 #include "drops/core/parallel.hpp"
 #include "drops/model/dynamics_model.hpp"
@@ -93,6 +95,39 @@ TEST(Rollout, SamplingChangesReturnsAndMeanPropagationIsDeterministic) {
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, a);
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, other, o, b);
   EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// The median statistic is the median of the rollouts' own returns (oracle: each rollout run alone
+// through run_episode on the model with its stream), for an odd and an even count, and it is not
+// the mean.
+TEST(Rollout, MedianStatisticIsTheMedianOfTheRolloutsReturns) {
+  Fixture f;
+  for (const int R : {5, 4}) {
+    rollout::RolloutOptions o;
+    o.rollouts = R;
+    o.batch = 3;
+    VectorXd mean, median;
+    rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, mean);
+    o.statistic = rollout::ReturnStatistic::kMedian;
+    rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, median);
+    rollout::ModelSystem system(*f.model, o);
+    double largest_gap = 0;
+    for (std::size_t k = 0; k < f.thetas.size(); ++k) {
+      auto p = f.pol->clone();
+      p->set_params(f.thetas[k]);
+      std::vector<double> r;
+      for (int i = 0; i < R; ++i) {
+        Rng rng(derive_seed(f.seeds[k], {static_cast<std::uint64_t>(i)}));
+        r.push_back(rollout::run_episode(*f.task, system, *p, rng).total_return());
+      }
+      std::sort(r.begin(), r.end());
+      const double expected = R % 2 ? r[R / 2] : 0.5 * (r[R / 2 - 1] + r[R / 2]);
+      const auto i = static_cast<Eigen::Index>(k);
+      EXPECT_NEAR(median[i], expected, 1e-6) << "R " << R << " policy " << k;
+      largest_gap = std::max(largest_gap, std::abs(median[i] - mean[i]));
+    }
+    EXPECT_GT(largest_gap, 1e-3) << "R " << R;
+  }
 }
 
 namespace {

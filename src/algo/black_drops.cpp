@@ -300,6 +300,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       rec.predicted = rollout::run_episode(*task, ms, *policy_copy, unused);
       rollout::RolloutOptions mc = options.rollouts;
       mc.rollouts = options.predicted_rollouts;
+      mc.statistic = rollout::ReturnStatistic::kMean;  // the reported prediction: the expected return
       VectorXd ret;
       rollout::evaluate_policies(*task, *planning_model, policy, {rec.theta},
                                  {derive_seed(options.seed, {ep, kPredicted})}, mc, ret);

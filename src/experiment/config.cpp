@@ -157,7 +157,7 @@ std::vector<KeySpec> build_base_keys() {
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",
-       "which evaluated policy is run: reevaluate = the best mean return when the start, the best "
+       "which evaluated policy is run: reevaluate = the best value (rollouts.statistic) when the start, the best "
        "evaluated policies and each run's final mean are re-evaluated with many rollouts (robust to "
        "lucky rollouts); best_seen = the best single evaluation (the paper's reference)"});
   add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
@@ -171,7 +171,14 @@ std::vector<KeySpec> build_base_keys() {
   add({"optimizer.prior_optimizations", "int", num(d.prior_optimizations), 1, 100, {}, "-",
        "with a prior: successive optimizations on the prior alone for episode 1"});
   add({"rollouts.count", "int", num(d.rollouts.rollouts), 1, 10000, {}, "-",
-       "Monte-Carlo rollouts averaged per policy evaluation"});
+       "Monte-Carlo rollouts per policy evaluation, combined by rollouts.statistic"});
+  add({"rollouts.statistic", "enum",
+       d.rollouts.statistic == rollout::ReturnStatistic::kMedian ? "median" : "mean", 0, 0,
+       {"mean", "median"}, "-",
+       "how a policy's rollout returns combine into its value on the model, in the search "
+       "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = the "
+       "expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
+       "predicted falls (docs/results/hexapod.md). The reported predicted return is always the mean"});
   add({"rollouts.clip", "double", num(d.rollouts.clip), 0, 100, {}, "sigma",
        "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
   add({"rollouts.batch", "int", num(d.rollouts.batch), 1, 1024, {}, "-",

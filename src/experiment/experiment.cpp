@@ -65,6 +65,8 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   a.reevaluation_candidates = static_cast<int>(get_int(st, "optimizer.reevaluation_candidates"));
   a.rollouts.rollouts = static_cast<int>(get_int(st, "rollouts.count"));
   a.rollouts.clip = get_double(st, "rollouts.clip");
+  a.rollouts.statistic = st.at("rollouts.statistic") == "median" ? rollout::ReturnStatistic::kMedian
+                                                                 : rollout::ReturnStatistic::kMean;
   a.rollouts.batch = static_cast<int>(get_int(st, "rollouts.batch"));
   a.predicted_rollouts = static_cast<int>(get_int(st, "rollouts.predicted"));
   std::string why;

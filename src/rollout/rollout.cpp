@@ -155,9 +155,20 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
   });
   returns.resize(static_cast<Eigen::Index>(K));
   for (std::size_t k = 0; k < K; ++k) {
-    double s = 0;
-    for (std::size_t r = 0; r < R; ++r) s += lane_return[k * R + r];
-    returns[static_cast<Eigen::Index>(k)] = s / static_cast<double>(R);
+    const auto first = lane_return.begin() + static_cast<std::ptrdiff_t>(k * R);
+    const auto last = first + static_cast<std::ptrdiff_t>(R);
+    double value = 0;
+    if (options.statistic == ReturnStatistic::kMedian) {
+      // Upper middle, then (even R) the largest of the lower half: their mean is the median.
+      const auto mid = first + static_cast<std::ptrdiff_t>(R / 2);
+      std::nth_element(first, mid, last);
+      value = *mid;
+      if (R % 2 == 0) value = 0.5 * (value + *std::max_element(first, mid));
+    } else {
+      for (auto it = first; it != last; ++it) value += *it;
+      value /= static_cast<double>(R);
+    }
+    returns[static_cast<Eigen::Index>(k)] = value;
   }
   if (stats) {
     stats->rollouts += static_cast<long>(lanes);

@@ -23,7 +23,8 @@ enum class PolicySelection {
   /// model this favours lucky draws).
   kBestSeen,
   /// Re-evaluate a short list (the start, the best distinct evaluated points, each CMA-ES run's
-  /// final mean) with many rollouts on common random numbers and return the best mean.
+  /// final mean) with many rollouts on common random numbers and return the best value (the mean or
+  /// the median of the rollouts' returns: RolloutOptions::statistic).
   kReevaluate,
 };
 
@@ -76,12 +77,14 @@ struct BlackDropsOptions {
   bool skip_known_replays = false;
   /// How the returned policy is chosen among the evaluated ones.
   PolicySelection selection = PolicySelection::kReevaluate;
-  /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1).
+  /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1), on common random
+  /// numbers; the candidate of the best value (RolloutOptions::statistic) is returned.
   int reevaluation_rollouts = 50;
   /// kReevaluate: best distinct evaluated points re-evaluated, besides the start and the runs'
   /// final means (>= 1).
   int reevaluation_candidates = 10;
-  /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy.
+  /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy
+  /// (always their mean, whatever rollouts.statistic).
   int predicted_rollouts = 20;
   /// Returns true when every field is valid; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;

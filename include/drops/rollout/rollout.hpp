@@ -20,10 +20,20 @@ namespace drops::rollout {
 Trajectory run_episode(const Task& task, const System& system, const policy::Policy& policy,
                        Rng& rng, long* nonfinite_steps = nullptr);
 
+/// How the returns of a policy's Monte-Carlo rollouts combine into its value on the model.
+enum class ReturnStatistic {
+  kMean,    ///< the mean return: the expected return of Black-DROPS (paper Eq. 6)
+  kMedian,  ///< the median return (the mean of the two middle ones for an even count): a value
+            ///< that a minority of rollouts (e.g. rare predicted falls) cannot move far
+};
+
 /// How a model rollout draws the next state difference from the predictive N(mu, sigma^2).
 struct RolloutOptions {
-  /// Monte-Carlo rollouts averaged per policy evaluation (>= 1; the reference used 1).
+  /// Monte-Carlo rollouts per policy evaluation (>= 1; the reference used 1), combined by
+  /// `statistic`.
   int rollouts = 1;
+  /// How the rollouts' returns combine into the policy's value (the mean by default).
+  ReturnStatistic statistic = ReturnStatistic::kMean;
   /// Draw dx ~ N(mu, sigma^2) per output; false propagates the mean only (deterministic).
   bool sample = true;
   /// Clip each standard-normal draw to [-clip, clip] (the reference clips at 1, i.e. mu +- sigma);
@@ -56,7 +66,8 @@ struct RolloutStats {
   long absorbed = 0;         ///< rollouts that reached an absorbing state (Task::absorbing)
 };
 
-/// Mean return of options.rollouts Monte-Carlo rollouts on `model` for each policy parameter vector
+/// The value (options.statistic: mean or median) of the returns of options.rollouts Monte-Carlo
+/// rollouts on `model` for each policy parameter vector
 /// (the policy gets the time t * task.dt() at step t, as in run_episode)
 /// thetas[k] (dim policy.param_dim()), using the random stream seeds[k] (rollout r uses
 /// derive_seed(seeds[k], {r})). Rollouts are batched (options.batch) and run in parallel; the
