@@ -178,7 +178,8 @@ std::vector<KeySpec> build_base_keys() {
        "how a policy's rollout returns combine into its value on the model, in the search "
        "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = the "
        "expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
-       "predicted falls (docs/results/hexapod.md). The reported predicted return is always the mean"});
+       "predicted falls (docs/architecture.md, \"The policy search\"). The reported predicted "
+       "return is always the mean"});
   add({"rollouts.clip", "double", num(d.rollouts.clip), 0, 100, {}, "sigma",
        "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
   add({"rollouts.batch", "int", num(d.rollouts.batch), 1, 1024, {}, "-",
