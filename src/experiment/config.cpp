@@ -157,9 +157,10 @@ std::vector<KeySpec> build_base_keys() {
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",
-       "which evaluated policy is run: reevaluate = the best value (rollouts.statistic) when the start, the best "
-       "evaluated policies and each run's final mean are re-evaluated with many rollouts (robust to "
-       "lucky rollouts); best_seen = the best single evaluation (the paper's reference)"});
+       "which evaluated policy is run: reevaluate = the best value (rollouts.statistic) when the "
+       "start, the best evaluated policies and each run's final mean are re-evaluated with many "
+       "rollouts (robust to lucky rollouts); best_seen = the best single evaluation (the paper's "
+       "reference)"});
   add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
        "selection reevaluate: rollouts per re-evaluated policy, on common random numbers (empty = "
        "the task's choice: " + num(d.reevaluation_rollouts) +
@@ -176,8 +177,8 @@ std::vector<KeySpec> build_base_keys() {
        d.rollouts.statistic == rollout::ReturnStatistic::kMedian ? "median" : "mean", 0, 0,
        {"mean", "median"}, "-",
        "how a policy's rollout returns combine into its value on the model, in the search "
-       "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = the "
-       "expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
+       "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = "
+       "the expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
        "predicted falls (docs/architecture.md, \"The policy search\"). The reported predicted "
        "return is always the mean"});
   add({"rollouts.clip", "double", num(d.rollouts.clip), 0, 100, {}, "sigma",

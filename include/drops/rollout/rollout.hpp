@@ -22,7 +22,7 @@ Trajectory run_episode(const Task& task, const System& system, const policy::Pol
 
 /// How the returns of a policy's Monte-Carlo rollouts combine into its value on the model.
 enum class ReturnStatistic {
-  kMean,    ///< the mean return: the expected return of Black-DROPS (paper Eq. 6)
+  kMean,    ///< the mean return: the expected return of Black-DROPS (paper Eq. 3 and 8)
   kMedian,  ///< the median return (the mean of the two middle ones for an even count): a value
             ///< that a minority of rollouts (e.g. rare predicted falls) cannot move far
 };
