@@ -105,6 +105,12 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
             rollout::ReturnStatistic::kMedian);
   const std::string m = error_of("", {"rollouts.statistic=mode"});
   EXPECT_NE(m.find("mean, median"), std::string::npos) << m;
+  EXPECT_EQ(a.model.gp_mi.candidate_start, d.model.gp_mi.candidate_start);
+  EXPECT_EQ(algo_of(settings("", {"model.gp_mi.candidate_start=initial"}))
+                .model.gp_mi.candidate_start,
+            model::GpMiCandidateStart::kInitial);
+  const std::string c = error_of("", {"model.gp_mi.candidate_start=fresh"});
+  EXPECT_NE(c.find("best_so_far, initial"), std::string::npos) << c;
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {

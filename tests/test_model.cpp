@@ -1,6 +1,7 @@
 // Dynamics-model variants: GP-MI and MI identify the pendubot's parameters (paper §IV-B).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <limits>
 
 #include <cmath>
@@ -195,4 +196,82 @@ TEST(GpMi, ExhaustiveSearchOverADiscreteParameterPicksTheActualValue) {
     EXPECT_EQ(s.phi[1], 0.5) << model::to_string(type) << ": " << s.BriefReport();
     EXPECT_EQ(s.phi_evaluations, 4);  // every choice scored once (GP-MI: nested for a discrete phi)
   }
+}
+
+// candidate_start = initial: every candidate of a discrete phi is fitted from a new GP's kernels,
+// so GP-MI's choice, its score and each candidate's score are those of a naive loop of fresh fits
+// (the oracle), whatever kernels the GPs held on entry; best_so_far starts from those kernels and
+// scores the candidates differently.
+TEST(GpMi, InitialCandidateStartScoresEveryCandidateAsAFreshFit) {
+  const auto data = actual_data(2);
+  pendubot::SwingUpTask task;
+  const int E = task.state_dim();
+  const model::Dataset d = model::make_dataset(data, &task, E, task.action_dim());
+  model::PriorParameters p;
+  p.names = pendubot::parameter_names();
+  p.values = pendubot::preset("tunable").to_phi();
+  p.tunable = {1};
+  p.lower = VectorXd::Constant(1, 0.3);
+  p.upper = VectorXd::Constant(1, 0.8);
+  p.choices = {{0.35, 0.5, 0.65, 0.75}};
+  pendubot::PendubotPrior prior;
+  model::GpMiOptions o;
+  o.score = model::GpMiScore::kSumOfLogLikelihoods;
+  o.inner_rprop_iterations = 20;
+  gp::RpropOptions rprop;
+  rprop.max_iterations = 20;
+
+  // The oracle: for each choice, E fresh GPs fitted with 20 Rprop iterations.
+  std::vector<double> oracle;
+  for (double m2 : p.choices[0]) {
+    VectorXd phi = p.values;
+    phi[1] = m2;
+    long bad = 0;
+    const MatrixXd t = d.dx - model::prior_outputs(prior, d.x, d.u, phi, &bad);
+    ASSERT_EQ(bad, 0);
+    double sum = 0;
+    for (int i = 0; i < E; ++i) {
+      gp::Gp g(static_cast<int>(d.gp_in.cols()));
+      g.compute(d.gp_in, t.col(i));
+      g.optimize_h_params(rprop);
+      sum += g.log_marginal_likelihood();
+    }
+    oracle.push_back(sum);
+  }
+  const auto best = std::max_element(oracle.begin(), oracle.end());
+  const double best_m2 = p.choices[0][static_cast<std::size_t>(best - oracle.begin())];
+  auto is_an_oracle_score = [&](double s) {
+    return std::any_of(oracle.begin(), oracle.end(),
+                       [&](double v) { return std::abs(s - v) <= 1e-9 * std::abs(v); });
+  };
+
+  // Kernels on entry far from a new GP's: every log length scale 2, as after an earlier fit.
+  auto entry_gps = [&] {
+    std::vector<gp::Gp> gps(static_cast<std::size_t>(E), gp::Gp(static_cast<int>(d.gp_in.cols())));
+    for (auto& g : gps) {
+      VectorXd h = g.h_params();
+      h.head(d.gp_in.cols()).setConstant(2.0);
+      g.set_h_params(h);
+    }
+    return gps;
+  };
+  // The first candidate's score, as the progress callback reports it after evaluation 0.
+  double first = std::numeric_limits<double>::quiet_NaN();
+  auto progress = [&](const std::string&, int k, double s) {
+    if (k == 0) first = s;
+  };
+
+  o.candidate_start = model::GpMiCandidateStart::kInitial;
+  auto gps = entry_gps();
+  const auto initial = model::identify_phi(prior, p, d, o, rprop, gps, progress);
+  EXPECT_EQ(initial.phi[1], best_m2);
+  EXPECT_NEAR(initial.score, *best, 1e-9 * std::abs(*best));
+  EXPECT_EQ(initial.evaluations, 4);
+  EXPECT_TRUE(is_an_oracle_score(first)) << first;
+
+  o.candidate_start = model::GpMiCandidateStart::kBestSoFar;
+  gps = entry_gps();
+  model::identify_phi(prior, p, d, o, rprop, gps, progress);
+  EXPECT_FALSE(is_an_oracle_score(first))
+      << first << ": best_so_far starts the first candidate from the entry kernels";
 }

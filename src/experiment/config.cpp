@@ -94,6 +94,13 @@ std::vector<KeySpec> build_base_keys() {
        0, 0, {"sum_likelihoods", "sum_log_likelihoods"}, "-",
        "GP-MI's score: log sum_i exp(loglik_i), the paper's sum of the likelihoods, or "
        "sum_i loglik_i, the joint likelihood of the output GPs (every output counts)"});
+  add({"model.gp_mi.candidate_start", "enum",
+       m.gp_mi.candidate_start == model::GpMiCandidateStart::kInitial ? "initial"
+                                                                      : "best_so_far",
+       0, 0, {"best_so_far", "initial"}, "-",
+       "nested search (and a discrete phi): each candidate's kernel fit starts from the best "
+       "candidate's kernels so far, or from a new GP's (equal terms for every candidate; "
+       "docs/architecture.md)"});
   add({"model.gp_mi.max_evaluations", "int", num(m.gp_mi.max_evaluations), 1, 1000000, {}, "-",
        "Subplex evaluations per phi search"});
   add({"model.gp_mi.tolerance", "double", num(m.gp_mi.xtol_rel), 0, 1, {}, "-",

@@ -47,6 +47,9 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   m.gp_mi.score = st.at("model.gp_mi.score") == "sum_log_likelihoods"
                       ? model::GpMiScore::kSumOfLogLikelihoods
                       : model::GpMiScore::kSumOfLikelihoods;
+  m.gp_mi.candidate_start = st.at("model.gp_mi.candidate_start") == "initial"
+                                ? model::GpMiCandidateStart::kInitial
+                                : model::GpMiCandidateStart::kBestSoFar;
   m.gp_mi.max_evaluations = static_cast<int>(get_int(st, "model.gp_mi.max_evaluations"));
   m.gp_mi.xtol_rel = m.gp_mi.ftol_rel = get_double(st, "model.gp_mi.tolerance");
   m.gp_mi.rounds = static_cast<int>(get_int(st, "model.gp_mi.rounds"));

@@ -57,8 +57,8 @@ opt::SubplexSummary search_phi(const MeanFunction& prior, const PriorParameters&
 }
 
 /// The paper's nesting: each evaluation of S(phi) refits every output's kernel with Rprop at the
-/// residuals of phi (warm-started from the best kernels so far). On return gps hold the kernels
-/// of the best phi.
+/// residuals of phi, warm-started from the best kernels so far or from a new GP's kernels
+/// (options.candidate_start). On return gps hold the kernels of the best phi.
 GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& parameters,
                           const Dataset& d, const GpMiOptions& options,
                           const gp::RpropOptions& inner, std::vector<gp::Gp>& gps,
@@ -67,6 +67,8 @@ GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& para
   const std::size_t E = gps.size();
   std::vector<VectorXd> best_h(E);
   for (std::size_t i = 0; i < E; ++i) best_h[i] = gps[i].h_params();
+  const bool from_initial = options.candidate_start == GpMiCandidateStart::kInitial;
+  const VectorXd initial_h = gp::Gp(static_cast<int>(d.gp_in.cols())).h_params();
   double best_score = -kInf;
   int evals = 0;
   std::atomic<long> rprop_its{0};
@@ -78,7 +80,7 @@ GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& para
     std::vector<VectorXd> h(E);
     parallel_for(E, [&](std::size_t i) {  // inner loop: Rprop per output GP
       gp::Gp g(static_cast<int>(d.gp_in.cols()));
-      g.set_h_params(best_h[i]);
+      g.set_h_params(from_initial ? initial_h : best_h[i]);
       try {
         g.compute(d.gp_in, t.col(static_cast<Eigen::Index>(i)));
         rprop_its += g.optimize_h_params(inner).iterations;

@@ -21,7 +21,7 @@ namespace drops::model {
 ///   S(phi) = max_{h_1..h_E} score(log p(dx_1 - M_1(phi) | X, h_1), ..., log p(dx_E - M_E(phi) | X, h_E)).
 enum class GpMiSearch {
   /// Paper's nested loops: every Subplex evaluation of phi refits all E kernels with Rprop
-  /// (warm-started from the best kernels so far, inner_rprop_iterations iterations).
+  /// (inner_rprop_iterations iterations, started as GpMiOptions::candidate_start says).
   kNested,
   /// Block-coordinate ascent on the same score: Subplex over phi with the kernels fixed (each
   /// evaluation costs N simulator calls and E O(N^2) solves), then refit the kernels at the new
@@ -43,10 +43,25 @@ enum class GpMiScore {
   kSumOfLogLikelihoods,
 };
 
+/// Where the nested search's kernel fit of each candidate phi starts (GpMiSearch::kNested, which
+/// GP-MI also uses for a purely discrete phi).
+enum class GpMiCandidateStart {
+  /// From the kernels of the best candidate so far (the first candidate: from the model's current
+  /// kernels, fitted at the previous episode's phi). Cheap for a continuous phi, whose neighbours
+  /// have similar kernels; with a few inner Rprop iterations it favours the candidates whose
+  /// kernels it starts from (measured on the hexapod's 7 priors, docs/results/hexapod.md).
+  kBestSoFar,
+  /// From a new GP's kernels (length scales 1, signal variance 1) for every candidate: the
+  /// candidates are compared on equal terms, whatever the previous episode chose.
+  kInitial,
+};
+
 /// Options of GP-MI (settings.md §4).
 struct GpMiOptions {
   GpMiSearch search = GpMiSearch::kAlternating;
   GpMiScore score = GpMiScore::kSumOfLikelihoods;  ///< how the per-output likelihoods combine
+  /// nested search: where each candidate's kernel fit starts
+  GpMiCandidateStart candidate_start = GpMiCandidateStart::kBestSoFar;
   int max_evaluations = 1000;   ///< Subplex evaluations per search (per discrete combination), >= 1
   double xtol_rel = 1e-4;       ///< Subplex relative tolerance on phi, >= 0
   double ftol_rel = 1e-4;       ///< Subplex relative tolerance on the score, >= 0
