@@ -1,7 +1,7 @@
 // hexapod_prior_scores: what GP-MI sees when it chooses a prior on a hexapod run's data
 // (docs/hexapod.md, "Leg identification").
 //
-//   build/apps/tools/hexapod_prior_scores RUN_DIR K [walls RATIO SNR] [friction MU]
+//   build/apps/tools/hexapod_prior_scores RUN_DIR K [walls RATIO SNR] [friction MU] [period P]
 //
 // For each prior of the family (intact, leg 0..5 removed), fits a gp_prior model with that prior
 // on the measured transitions of episodes 1..K of RUN_DIR (episodes/NNN/real.csv) and prints the
@@ -10,7 +10,8 @@
 // sum_i l_i over the 36 joint outputs and over the 12 body outputs. "walls RATIO SNR" enables
 // PILCO's soft walls in the kernel fits, as `drops run` on the hexapod (10 500). "friction MU"
 // gives the priors' ground this Coulomb coefficient (hexapod.prior.ground_friction; default 1,
-// the "real" robot's floor is 0.4). A diagnostic:
+// the "real" robot's floor is 0.4). "period P" gives the priors' velocity actuators this period
+// (hexapod.prior.velocity_gain_period; default settings.md's pi). A diagnostic:
 // full kernel fits per prior (GP-MI's nested search does the same fits warm-started), no timing.
 #include <cstdio>
 #include <cstdlib>
@@ -27,12 +28,29 @@
 
 int main(int argc, char** argv) {
   namespace hx = drops::hexapod;
-  const bool walls = argc >= 6 && std::string(argv[3]) == "walls";
-  const int friction_at = walls ? 6 : 3;
-  const bool friction = argc == friction_at + 2 && std::string(argv[friction_at]) == "friction";
-  if (argc != friction_at + (friction ? 2 : 0)) {
+  // Options after RUN_DIR K, in any order: "walls RATIO SNR", "friction MU", "period P".
+  char** walls = nullptr;
+  double mu = 1.0;
+  double period = hx::HexapodPriorOptions{}.simulator.velocity_gain_period;
+  bool usage = argc < 3;
+  for (int a = 3; a < argc && !usage;) {
+    const std::string w = argv[a];
+    if (w == "walls" && a + 2 < argc) {
+      walls = argv + a;
+      a += 3;
+    } else if (w == "friction" && a + 1 < argc) {
+      mu = std::atof(argv[a + 1]);
+      a += 2;
+    } else if (w == "period" && a + 1 < argc) {
+      period = std::atof(argv[a + 1]);
+      a += 2;
+    } else {
+      usage = true;
+    }
+  }
+  if (usage) {
     std::fprintf(stderr,
-                 "usage: %s RUN_DIR K [walls RATIO SNR] [friction MU]\n"
+                 "usage: %s RUN_DIR K [walls RATIO SNR] [friction MU] [period P]\n"
                  "  GP-MI's scores of the 7 removed-leg priors on episodes 1..K of RUN_DIR\n",
                  argv[0]);
     return 2;
@@ -41,9 +59,7 @@ int main(int argc, char** argv) {
     const std::string dir = argv[1];
     const int k = std::atoi(argv[2]);
     const std::vector<drops::Transition> data = drops::tools::read_episodes(dir, k);
-    const drops::model::ModelOptions options =
-        drops::tools::gp_prior_options(walls ? argv + 3 : nullptr);
-    const double mu = friction ? std::atof(argv[friction_at + 1]) : 1.0;
+    const drops::model::ModelOptions options = drops::tools::gp_prior_options(walls);
     std::printf("%zu transitions (episodes 1-%d of %s)\n", data.size(), k, dir.c_str());
     std::printf("%-7s | %14s | %12s | %12s | %12s\n", "prior", "log sum exp l", "sum l",
                 "sum l joints", "sum l body");
@@ -52,6 +68,7 @@ int main(int argc, char** argv) {
       hx::HexapodPriorOptions prior_options;
       prior_options.pool_capacity = 1;
       prior_options.simulator.ground_friction = mu;
+      prior_options.simulator.velocity_gain_period = period;
       auto prior = std::make_shared<hx::HexapodPrior>(prior_options);
       drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
       fixed.values[0] = leg;  // gp_prior keeps the starting values
