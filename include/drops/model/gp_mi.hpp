@@ -49,7 +49,7 @@ enum class GpMiCandidateStart {
   /// From the kernels of the best candidate so far (the first candidate: from the model's current
   /// kernels, fitted at the previous episode's phi). Cheap for a continuous phi, whose neighbours
   /// have similar kernels; with a few inner Rprop iterations it favours the candidates whose
-  /// kernels it starts from (measured on the hexapod's 7 priors, docs/results/hexapod.md).
+  /// kernels it starts from (measured on a family of 7 discrete priors, docs/architecture.md).
   kBestSoFar,
   /// From a new GP's kernels (length scales 1, signal variance 1) for every candidate: the
   /// candidates are compared on equal terms, whatever the previous episode chose.
