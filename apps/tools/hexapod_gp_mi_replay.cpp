@@ -15,9 +15,7 @@
 // Runs on one thread, as each run of a campaign.
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -31,19 +29,17 @@
 
 namespace {
 
-/// The phi column (6th) of RUN_DIR/episodes.csv per episode (index 0 = episode 1); empty when the
-/// file cannot be read.
-std::vector<std::string> run_phis(const std::string& dir) {
-  std::vector<std::string> out;
-  std::ifstream in(dir + "/episodes.csv");
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string cell;
-    for (int c = 0; c < 6 && std::getline(ss, cell, ','); ++c) {
-    }
-    out.push_back(cell);
+/// The phi column of RUN_DIR/episodes.csv per episode (index 0 = episode 1), read with the
+/// run-directory reader; empty when the file cannot be read or has no phi column.
+std::vector<double> run_phis(const std::string& dir) {
+  std::vector<double> out;
+  try {
+    const auto table = drops::experiment::read_trajectory_csv(dir + "/episodes.csv");
+    const int c = table.column("phi");
+    if (c < 0) return out;
+    for (const auto& row : table.rows) out.push_back(row[static_cast<std::size_t>(c)]);
+  } catch (const drops::Error&) {
+    out.clear();
   }
   return out;
 }
@@ -93,7 +89,7 @@ int main(int argc, char** argv) {
     const std::string dir = argv[1];
     const int k_max = std::atoi(argv[2]);
     if (k_max < 1) throw drops::InvalidArgument("K must be >= 1");
-    const std::vector<std::string> ran = run_phis(dir);
+    const std::vector<double> ran = run_phis(dir);
     auto task = std::make_shared<hx::HexapodTask>();
     hx::HexapodPriorOptions prior_options;
     prior_options.pool_capacity = 1;
@@ -103,8 +99,9 @@ int main(int argc, char** argv) {
                 "the run's prior at episode k+1");
     for (int k = 1; k <= k_max; ++k) {
       const dm::ModelSummary s = model->learn(drops::tools::read_episodes(dir, k));
-      const std::string theirs =
-          static_cast<std::size_t>(k) < ran.size() ? leg_name(std::atof(ran[k].c_str())) : "-";
+      const std::string theirs = static_cast<std::size_t>(k) < ran.size()
+                                     ? leg_name(ran[static_cast<std::size_t>(k)])
+                                     : "-";
       std::printf("%-3d | %-7s | %12.2f | %8.1f | %s\n", k, leg_name(s.phi[0]).c_str(), s.score,
                   s.seconds, theirs.c_str());
       std::fflush(stdout);

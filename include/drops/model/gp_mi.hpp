@@ -44,7 +44,8 @@ enum class GpMiScore {
 };
 
 /// Where the nested search's kernel fit of each candidate phi starts (GpMiSearch::kNested, which
-/// GP-MI also uses for a purely discrete phi).
+/// GP-MI also uses for a purely discrete phi): the start of the inner Rprop loop of paper
+/// Algorithm 2, which the paper leaves open.
 enum class GpMiCandidateStart {
   /// From the kernels of the best candidate so far (the first candidate: from the model's current
   /// kernels, fitted at the previous episode's phi). Cheap for a continuous phi, whose neighbours
@@ -106,8 +107,10 @@ VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const Matr
 /// Paper Algorithm 2: phi* = argmax_phi S(phi) over parameters.tunable within their bounds
 /// (discrete choices exhaustively), starting from parameters.values, by options.search.
 /// data: the transitions (x, u, dx and the GP inputs), subsampled to options.max_points inside the
-/// search. gps: the E output GPs; their hyper-parameters are the warm start on entry, and on
-/// return the kernels fitted at phi* inside the search (the caller refits on all data). rprop:
+/// search. gps: the E output GPs; their hyper-parameters are the warm start on entry (of the
+/// first candidate's fits with options.candidate_start = kBestSoFar, of the first round in the
+/// alternating search; unused with kInitial), and on return the kernels fitted at phi* inside
+/// the search (the caller refits on all data). rprop:
 /// the options of the kernel fits, whose iteration count is replaced by
 /// options.inner_rprop_iterations. prior.check_phi rejects invalid candidates (score -inf).
 /// Throws InvalidArgument when parameters do not fit the prior or the data. Not thread-safe (it
