@@ -297,12 +297,15 @@ TEST(Config, ResolvedDerivedDefaultsEqualTheValuesOlderRunsWrote) {
       "task: pendubot\noptimizer: {max_evaluations: 10000, selection: reevaluate, "
       "run_evaluations: ~, stagnation: true, tol_fun: 0.01, restart_from: mixed}\n"
       "policy: {bound: 5, hidden_units: 10}\nmodel: {rprop: {penalty: auto, "
-      "max_length_scale_ratio: ~}}\n",
+      "max_length_scale_ratio: ~}, gp_mi: {score: sum_likelihoods, candidate_start: "
+      "best_so_far}}\n",
       {});
   EXPECT_EQ(now.at("optimizer.max_evaluations"), "10000");
   EXPECT_EQ(now.at("policy.bound"), "5");
   EXPECT_EQ(now.at("model.rprop.max_length_scale_ratio"), "100");
   EXPECT_EQ(now.at("model.rprop.penalty"), "off");
+  EXPECT_EQ(now.at("model.gp_mi.score"), "sum_likelihoods");  // the paper's, for the pendubot
+  EXPECT_EQ(now.at("model.gp_mi.candidate_start"), "best_so_far");
   std::string key;
   EXPECT_TRUE(experiment::same_settings(now, old, {}, &key)) << key;
 }

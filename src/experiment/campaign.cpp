@@ -462,8 +462,22 @@ std::string campaign_difference(const Registry& registry, const CampaignSpec& ol
                          join(y.values, ", "));
   }
   std::string key;
-  const Settings a = load_settings(registry, old_spec.settings_yaml, {});
   const Settings b = load_settings(registry, spec.settings_yaml, {});
+  // A key the old file left to its default and this one pins is not a change of the campaign:
+  // the default may have changed since, and pinning its old value keeps the file's meaning. The
+  // runs made decide: check_run_config compares each one's config.yaml with this file.
+  const auto keys = all_keys(registry);
+  std::vector<std::string> old_keys;
+  std::vector<std::string> new_keys;
+  if (!old_spec.settings_yaml.empty())
+    settings_keys(keys, YAML::Load(old_spec.settings_yaml), "", old_keys);
+  if (!spec.settings_yaml.empty()) settings_keys(keys, YAML::Load(spec.settings_yaml), "", new_keys);
+  // The old settings with those keys pinned, so that what derives from them (e.g.
+  // optimizer.run_evaluations) derives again.
+  std::vector<std::string> pinned;
+  for (const auto& k : new_keys)
+    if (!contains(old_keys, k) && b.count(k) != 0) pinned.push_back(k + "=" + b.at(k));
+  const Settings a = load_settings(registry, old_spec.settings_yaml, pinned);
   if (!same_settings(a, b, {}, &key)) {
     auto get = [&](const Settings& s) {
       const auto it = s.find(key);

@@ -37,7 +37,19 @@ std::map<std::string, std::string> fallback_defaults() {
           {"optimizer.max_evaluations", num(static_cast<double>(d.cmaes.max_evaluations))},
           {"optimizer.reevaluation_rollouts", num(d.reevaluation_rollouts)},
           {"model.rprop.max_length_scale_ratio", num(d.model.rprop.max_length_scale_ratio)},
-          {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"}};
+          {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"},
+          {"model.gp_mi.score", d.model.gp_mi.score == model::GpMiScore::kSumOfLogLikelihoods
+                                    ? "sum_log_likelihoods"
+                                    : "sum_likelihoods"},
+          {"model.gp_mi.candidate_start",
+           d.model.gp_mi.candidate_start == model::GpMiCandidateStart::kInitial ? "initial"
+                                                                                : "best_so_far"}};
+}
+
+// Enum keys whose value "auto" means the task's choice (fallback_defaults() otherwise).
+bool is_auto_enum(const std::string& key) {
+  return key == "model.rprop.penalty" || key == "model.gp_mi.score" ||
+         key == "model.gp_mi.candidate_start";
 }
 
 std::vector<KeySpec> build_base_keys() {
@@ -88,19 +100,24 @@ std::vector<KeySpec> build_base_keys() {
        {"alternating", "nested"}, "-",
        "nested: paper's Algorithm 2 (Rprop inside every Subplex evaluation); alternating: "
        "block-coordinate ascent on the same score (much faster)"});
-  add({"model.gp_mi.score", "enum",
-       m.gp_mi.score == model::GpMiScore::kSumOfLogLikelihoods ? "sum_log_likelihoods"
-                                                               : "sum_likelihoods",
-       0, 0, {"sum_likelihoods", "sum_log_likelihoods"}, "-",
+  add({"model.gp_mi.score", "enum", "auto", 0, 0,
+       {"auto", "sum_likelihoods", "sum_log_likelihoods"}, "-",
        "GP-MI's score: log sum_i exp(loglik_i), the paper's sum of the likelihoods, or "
-       "sum_i loglik_i, the joint likelihood of the output GPs (every output counts)"});
-  add({"model.gp_mi.candidate_start", "enum",
-       m.gp_mi.candidate_start == model::GpMiCandidateStart::kInitial ? "initial"
-                                                                      : "best_so_far",
-       0, 0, {"best_so_far", "initial"}, "-",
+       "sum_i loglik_i, the joint likelihood of the output GPs (every output counts); auto = "
+       "the task's choice, " +
+           std::string(m.gp_mi.score == model::GpMiScore::kSumOfLogLikelihoods
+                           ? "sum_log_likelihoods"
+                           : "sum_likelihoods") +
+           " unless the task says otherwise"});
+  add({"model.gp_mi.candidate_start", "enum", "auto", 0, 0, {"auto", "best_so_far", "initial"},
+       "-",
        "nested search (and a discrete phi): each candidate's kernel fit starts from the best "
        "candidate's kernels so far, or from a new GP's (equal terms for every candidate; "
-       "docs/architecture.md)"});
+       "docs/architecture.md); auto = the task's choice, " +
+           std::string(m.gp_mi.candidate_start == model::GpMiCandidateStart::kInitial
+                           ? "initial"
+                           : "best_so_far") +
+           " unless the task says otherwise"});
   add({"model.gp_mi.max_evaluations", "int", num(m.gp_mi.max_evaluations), 1, 1000000, {}, "-",
        "Subplex evaluations per phi search"});
   add({"model.gp_mi.tolerance", "double", num(m.gp_mi.xtol_rel), 0, 1, {}, "-",
@@ -462,6 +479,7 @@ Settings load_run_settings(const Registry& registry, const std::string& yaml_tex
       {"optimizer.stagnation", "false"},
       {"optimizer.tol_fun", "1e-12"},
       {"optimizer.restart_from", "random"},
+      {"model.gp_mi.candidate_start", "best_so_far"},
   };
   std::vector<std::pair<std::string, YAML::Node>> present;
   flatten(parse_yaml(yaml_text, "config"), "",
@@ -500,7 +518,7 @@ void resolve_derived_defaults(const Registry& registry, Settings& settings) {
   for (const auto& [key, fallback] : fallback_defaults()) {
     const auto it = settings.find(key);
     if (it == settings.end()) continue;
-    const bool derived = it->second.empty() || (key == "model.rprop.penalty" && it->second == "auto");
+    const bool derived = it->second.empty() || (is_auto_enum(key) && it->second == "auto");
     if (!derived) continue;
     const auto t = shared.find(key);
     it->second = t != shared.end() ? t->second : fallback;

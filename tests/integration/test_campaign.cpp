@@ -240,6 +240,39 @@ TEST(Campaign, ADifferentCampaignFileIsRefusedButOtherJobsAndThreadsAreAccepted)
   clean_up(d);
 }
 
+// A default that changed after a campaign was made: the file then pins the old value, which the
+// runs were made with. That is the same campaign; another value is refused by the runs made.
+TEST(Campaign, PinningTheOldValueOfAChangedDefaultKeepsTheCampaign) {
+  const fs::path d = fresh_dir("campaign", "pinned");
+  const fs::path file = d / "tiny.yaml";
+  const std::string pinned = read_file(kTiny) + "  model.gp_mi.candidate_start: initial\n";
+  write_file(file, pinned);
+  std::string err;
+  ASSERT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " -q", &err,
+                      Stdout::kDiscard),
+            0)
+      << err;
+  // The campaign's copy of its file as it was when the default (today's best_so_far) was initial.
+  write_file(d / "tiny" / "campaign.yaml", read_file(kTiny));
+  EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " --dry-run", &err,
+                      Stdout::kDiscard),
+            0)
+      << err;
+  write_file(file, read_file(kTiny) + "  model.gp_mi.candidate_start: best_so_far\n");
+  EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " --dry-run", &err,
+                      Stdout::kDiscard),
+            2);
+  EXPECT_NE(err.find("different settings: key 'model.gp_mi.candidate_start'"), std::string::npos)
+      << err;
+  // Unpinned, the file means today's default, which the runs were not made with.
+  write_file(file, read_file(kTiny));
+  EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " --dry-run", &err,
+                      Stdout::kDiscard),
+            2);
+  EXPECT_NE(err.find("model.gp_mi.candidate_start"), std::string::npos) << err;
+  clean_up(d);
+}
+
 TEST(Campaign, AdoptsARunStartedByPlainDropsRunAndRefusesOneWithOtherSettings) {
   const fs::path d = fresh_dir("campaign", "adopt");
   const std::string budget =

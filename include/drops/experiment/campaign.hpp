@@ -87,6 +87,8 @@ bool same_setting_value(const std::string& a, const std::string& b);
 
 /// Why two campaign specs describe different campaigns: "" when only jobs, threads, name or
 /// output differ, else a sentence naming the first difference (an axis, its values, a setting).
+/// A setting `a` leaves to its default and `b` sets is no difference (a changed default pinned
+/// to its old value; the run directories' own settings decide whether the runs made agree).
 std::string campaign_difference(const Registry& registry, const CampaignSpec& a,
                                 const CampaignSpec& b);
 

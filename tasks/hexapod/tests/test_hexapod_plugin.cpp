@@ -74,8 +74,11 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_EQ(e.setup.prior_label, "intact");
   EXPECT_EQ(e.setup.phi_actual, (std::vector<double>{-1}));
   EXPECT_DOUBLE_EQ(a.theta_bound, 0.5);  // gait parameters theta + 0.5 in [0, 1]
-  EXPECT_EQ(a.cmaes.max_evaluations, 2000);
+  EXPECT_EQ(a.cmaes.max_evaluations, 5000);
   EXPECT_EQ(a.reevaluation_rollouts, 20);
+  // GP-MI: the joint likelihood, every candidate's kernels from a new GP's (measured choices).
+  EXPECT_EQ(a.model.gp_mi.score, model::GpMiScore::kSumOfLogLikelihoods);
+  EXPECT_EQ(a.model.gp_mi.candidate_start, model::GpMiCandidateStart::kInitial);
   EXPECT_EQ(e.setup.task->horizon(), 40);
   // PILCO's soft walls: on by default for the hexapod, with its own length-scale ratio.
   EXPECT_TRUE(a.model.rprop.penalty);
@@ -208,7 +211,19 @@ TEST(HexapodPlugin, DamageAndPriorChoices) {
 TEST(HexapodPlugin, ResolvedDerivedDefaultsEqualExplicitOnes) {
   auto hex = experiment::load_settings(registry(), "task: hexapod\n", {"policy.bound=0.25"});
   EXPECT_EQ(hex.at("policy.bound"), "0.25");  // explicit values stay
-  EXPECT_EQ(hex.at("optimizer.max_evaluations"), "2000");
+  EXPECT_EQ(hex.at("optimizer.max_evaluations"), "5000");
+  EXPECT_EQ(hex.at("model.gp_mi.score"), "sum_log_likelihoods");
+  EXPECT_EQ(hex.at("model.gp_mi.candidate_start"), "initial");
+  // Explicit values win over the task's, "auto" takes it.
+  const auto paper = experiment::load_settings(
+      registry(), "task: hexapod\n",
+      {"model.gp_mi.score=sum_likelihoods", "model.gp_mi.candidate_start=auto"});
+  EXPECT_EQ(paper.at("model.gp_mi.score"), "sum_likelihoods");
+  EXPECT_EQ(paper.at("model.gp_mi.candidate_start"), "initial");
+  // A run directory written before the key existed was made with the best candidate's start.
+  auto old = experiment::load_run_settings(registry(), "task: hexapod\n", {});
+  experiment::resolve_derived_defaults(registry(), old);
+  EXPECT_EQ(old.at("model.gp_mi.candidate_start"), "best_so_far");
   EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "10");
   EXPECT_EQ(hex.at("model.rprop.penalty"), "on");
 }
