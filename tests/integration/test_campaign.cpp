@@ -252,7 +252,8 @@ TEST(Campaign, PinningTheOldValueOfAChangedDefaultKeepsTheCampaign) {
                       Stdout::kDiscard),
             0)
       << err;
-  // The campaign's copy of its file as it was when the default (today's best_so_far) was initial.
+  // Make the campaign's copy of its file leave the key to its default, as if that default had
+  // been initial when the runs were made (it is best_so_far today).
   write_file(d / "tiny" / "campaign.yaml", read_file(kTiny));
   EXPECT_EQ(run_drops("campaign " + file.string() + " --output " + d.string() + " --dry-run", &err,
                       Stdout::kDiscard),
