@@ -6,7 +6,8 @@
 // Trains a gp_prior model (fixed prior: REMOVED_LEG, -1 = intact) on the measured transitions of
 // episodes 1..K of RUN_DIR (episodes/NNN/real.csv), then prints the one-step root-mean-square
 // error of dx = x_{t+1} - x_t on episode K + 1, per block of the 48-D state, for the prior alone
-// and for the model; "walls RATIO SNR" enables PILCO's soft walls in the kernel fits
+// and for the model, and the signed mean error of the body's forward step on that episode and on
+// the training data; "walls RATIO SNR" enables PILCO's soft walls in the kernel fits
 // (gp::RpropOptions::penalty). A diagnostic, not a benchmark: single-threaded, no timing.
 #include <cmath>
 #include <cstdio>
@@ -88,6 +89,30 @@ int main(int argc, char** argv) {
       std::printf("%-20s | %10.4f | %10.4f | %10.4f\n", names[b], std::sqrt(sq_dx[b] / n),
                   std::sqrt(sq_prior[b] / n), std::sqrt(sq_model[b] / n));
     }
+    // The forward displacement per step (the walking speed's component): signed mean errors, on
+    // the held-out episode and on the training data, show whether the model corrects the
+    // prior's bias where it has data (the walking speed is this mean over 40 steps / 4 s).
+    const int x = hx::kBodyPos;
+    auto bias = [&](const std::vector<Transition>& set, double out[3]) {
+      out[0] = out[1] = out[2] = 0;
+      for (const Transition& t : set) {
+        prior->evaluate(t.x, t.u, phi, dx_prior);
+        model->predict(t.x, t.u, p);
+        out[0] += t.dx[x];
+        out[1] += dx_prior[x] - t.dx[x];
+        out[2] += p.mean[x] - t.dx[x];
+      }
+      for (int i = 0; i < 3; ++i) out[i] *= 1000.0 / static_cast<double>(set.size());
+    };
+    double on_test[3], on_train[3];
+    bias(test, on_test);
+    bias(train, on_train);
+    std::printf("body x per step (mm) | %-10s | %-10s | %-10s\n", "real mean", "prior bias",
+                "model bias");
+    std::printf("%-20s | %10.3f | %10.3f | %10.3f\n", "held-out episode", on_test[0], on_test[1],
+                on_test[2]);
+    std::printf("%-20s | %10.3f | %10.3f | %10.3f\n", "training data", on_train[0], on_train[1],
+                on_train[2]);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hexapod_model_error: %s\n", e.what());
     return 1;
