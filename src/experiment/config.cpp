@@ -23,14 +23,22 @@ namespace {
 std::string num(double v) { return fmt::format("{}", v); }
 std::string boolean(bool v) { return v ? "true" : "false"; }
 
+std::string score_name(model::GpMiScore v) {
+  return v == model::GpMiScore::kSumOfLogLikelihoods ? "sum_log_likelihoods" : "sum_likelihoods";
+}
+
+std::string candidate_start_name(model::GpMiCandidateStart v) {
+  return v == model::GpMiCandidateStart::kInitial ? "initial" : "best_so_far";
+}
+
 std::string restart_name(opt::CmaesRestartStart r) {
   return r == opt::CmaesRestartStart::kRandom ? "random"
          : r == opt::CmaesRestartStart::kStart ? "start"
                                                 : "mixed";
 }
 
-/// Values of the base keys whose schema default is empty because some task changes it: what
-/// they are when the task says nothing (the Options structs' defaults).
+/// Values of the base keys whose schema default is empty (or, for an enum, "auto") because some
+/// task changes it: what they are when the task says nothing (the Options structs' defaults).
 std::map<std::string, std::string> fallback_defaults() {
   const algo::BlackDropsOptions d;
   return {{"policy.bound", num(d.theta_bound)},
@@ -38,18 +46,8 @@ std::map<std::string, std::string> fallback_defaults() {
           {"optimizer.reevaluation_rollouts", num(d.reevaluation_rollouts)},
           {"model.rprop.max_length_scale_ratio", num(d.model.rprop.max_length_scale_ratio)},
           {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"},
-          {"model.gp_mi.score", d.model.gp_mi.score == model::GpMiScore::kSumOfLogLikelihoods
-                                    ? "sum_log_likelihoods"
-                                    : "sum_likelihoods"},
-          {"model.gp_mi.candidate_start",
-           d.model.gp_mi.candidate_start == model::GpMiCandidateStart::kInitial ? "initial"
-                                                                                : "best_so_far"}};
-}
-
-// Enum keys whose value "auto" means the task's choice (fallback_defaults() otherwise).
-bool is_auto_enum(const std::string& key) {
-  return key == "model.rprop.penalty" || key == "model.gp_mi.score" ||
-         key == "model.gp_mi.candidate_start";
+          {"model.gp_mi.score", score_name(d.model.gp_mi.score)},
+          {"model.gp_mi.candidate_start", candidate_start_name(d.model.gp_mi.candidate_start)}};
 }
 
 std::vector<KeySpec> build_base_keys() {
@@ -105,19 +103,13 @@ std::vector<KeySpec> build_base_keys() {
        "GP-MI's score: log sum_i exp(loglik_i), the paper's sum of the likelihoods, or "
        "sum_i loglik_i, the joint likelihood of the output GPs (every output counts); auto = "
        "the task's choice, " +
-           std::string(m.gp_mi.score == model::GpMiScore::kSumOfLogLikelihoods
-                           ? "sum_log_likelihoods"
-                           : "sum_likelihoods") +
-           " unless the task says otherwise"});
+           score_name(m.gp_mi.score) + " unless the task says otherwise"});
   add({"model.gp_mi.candidate_start", "enum", "auto", 0, 0, {"auto", "best_so_far", "initial"},
        "-",
        "nested search (and a discrete phi): each candidate's kernel fit starts from the best "
        "candidate's kernels so far, or from a new GP's (equal terms for every candidate; "
        "docs/architecture.md); auto = the task's choice, " +
-           std::string(m.gp_mi.candidate_start == model::GpMiCandidateStart::kInitial
-                           ? "initial"
-                           : "best_so_far") +
-           " unless the task says otherwise"});
+           candidate_start_name(m.gp_mi.candidate_start) + " unless the task says otherwise"});
   add({"model.gp_mi.max_evaluations", "int", num(m.gp_mi.max_evaluations), 1, 1000000, {}, "-",
        "Subplex evaluations per phi search"});
   add({"model.gp_mi.tolerance", "double", num(m.gp_mi.xtol_rel), 0, 1, {}, "-",
@@ -518,8 +510,8 @@ void resolve_derived_defaults(const Registry& registry, Settings& settings) {
   for (const auto& [key, fallback] : fallback_defaults()) {
     const auto it = settings.find(key);
     if (it == settings.end()) continue;
-    const bool derived = it->second.empty() || (is_auto_enum(key) && it->second == "auto");
-    if (!derived) continue;
+    // Empty, or "auto" for an enum (no other value of these keys can be "auto").
+    if (!it->second.empty() && it->second != "auto") continue;
     const auto t = shared.find(key);
     it->second = t != shared.end() ? t->second : fallback;
   }
