@@ -336,3 +336,111 @@ TEST(BlackDrops, InvalidOptionsAreRejected) {
   policy::NeuralNetPolicy pol;
   EXPECT_THROW(algo::run_black_drops(task, real, pol, nullptr, {}, o), InvalidArgument);
 }
+
+// The trust region's box, against a per-coordinate oracle: centre +- region b, clipped to [-b, b].
+TEST(BlackDropsTrustRegion, BoxIsTheCentrePlusMinusTheRadiusInsideTheBounds) {
+  VectorXd centre(4);
+  centre << 0.0, 0.45, -0.5, -0.2;
+  VectorXd lower, upper;
+  algo::trust_region_box(centre, 0.5, 0.25, lower, upper);
+  for (Eigen::Index i = 0; i < centre.size(); ++i) {
+    EXPECT_DOUBLE_EQ(lower[i], std::max(-0.5, centre[i] - 0.125)) << i;
+    EXPECT_DOUBLE_EQ(upper[i], std::min(0.5, centre[i] + 0.125)) << i;
+  }
+  algo::trust_region_box(VectorXd::Zero(4), 0.5, 1.0, lower, upper);
+  EXPECT_TRUE((lower.array() == -0.5).all() && (upper.array() == 0.5).all());
+  EXPECT_THROW(algo::trust_region_box(centre, 0.5, 0.0, lower, upper), InvalidArgument);
+  EXPECT_THROW(algo::trust_region_box(centre, 0.5, 1.5, lower, upper), InvalidArgument);
+  EXPECT_THROW(algo::trust_region_box(centre, 0.0, 0.5, lower, upper), InvalidArgument);
+}
+
+// A search in a trust region stays in it: every candidate CMA-ES kept and the returned policy lie
+// within region b of the start; region 1 is the search without a region, to the bit.
+TEST_F(DeterministicPriorSearch, ASearchInATrustRegionStaysInItAndRegionOneChangesNothing) {
+  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
+  const double region = 0.1, half = region * o.theta_bound;
+  const auto s = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr, true,
+                                       region);
+  auto inside = [&](const VectorXd& x) {
+    return ((x - start).cwiseAbs().array() <= half * (1 + 1e-12)).all() &&
+           (x.cwiseAbs().array() <= o.theta_bound).all();
+  };
+  EXPECT_TRUE(inside(s.theta));
+  ASSERT_FALSE(s.search.best_candidates.empty());
+  for (const auto& c : s.search.best_candidates) EXPECT_TRUE(inside(c.x));
+  // Without the region the same search leaves that box (the optimum is not next to the start).
+  const auto whole = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  EXPECT_FALSE(inside(whole.theta));
+  const auto one = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr, true,
+                                         1.0);
+  EXPECT_EQ(one.theta, whole.theta);
+  EXPECT_EQ(one.value, whole.value);
+}
+
+// optimizer.trust_region in a run: the recorded radius of every episode follows TuRBO's rule from
+// the episodes before it (recomputed here from their real returns), every policy run lies within
+// its radius of the best real policy before it, and a run resumed from a checkpoint continues
+// with the same radius and the same policies.
+TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
+  // Without the start kept as a candidate, a 30-evaluation search often runs a worse policy.
+  const std::vector<std::string> ov = {"episodes=7", "model.type=gp_prior",
+                                       "optimizer.max_evaluations=30", "optimizer.keep_start=false",
+                                       "optimizer.prior_optimizations=1",
+                                       "optimizer.trust_region=true",
+                                       "optimizer.trust_region_min=0.25"};
+  const auto r = run(1, ov);
+  ASSERT_EQ(r.size(), 7u);
+  const auto o = experiment::black_drops_options(fixtures::experiment(ov).settings);
+  double region = 1.0, best_return = r[0].real_return;
+  VectorXd best = r[0].theta;
+  int shrinks = 0;
+  for (std::size_t k = 1; k < r.size(); ++k) {
+    ASSERT_EQ(r[k].details.numbers.count("trust_region_radius"), 1u) << "episode " << k + 1;
+    EXPECT_EQ(r[k].details.numbers.at("trust_region_radius"), region) << "episode " << k + 1;
+    std::printf("[info] episode %d: radius %.3f, return %.3f\n", static_cast<int>(k + 1), region,
+                r[k].real_return);
+    if (region < 1)
+      EXPECT_LE((r[k].theta - best).cwiseAbs().maxCoeff(), region * o.theta_bound * (1 + 1e-12))
+          << "episode " << k + 1;
+    const bool replay = (r[k].theta.array() == best.array()).all();
+    if (!replay) {
+      const double before = region;
+      region = r[k].real_return > best_return ? std::min(1.0, 2 * region)
+                                              : std::max(0.25, region / 2);
+      if (region < before) ++shrinks;
+    }
+    if (r[k].real_return > best_return) {
+      best_return = r[k].real_return;
+      best = r[k].theta;
+    }
+  }
+  EXPECT_GT(shrinks, 0) << "no episode failed: the setting no longer exercises the rule";
+
+  const auto e = fixtures::experiment(ov);
+  algo::BlackDropsState saved;
+  algo::BlackDropsCallbacks cb;
+  cb.on_state = [&](const algo::BlackDropsState& st) {
+    if (st.episodes_done == 4) saved = st;
+  };
+  ThreadLimit limit(1);
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb);
+  ASSERT_EQ(saved.episodes_done, 4);
+  ASSERT_EQ(saved.extra.count("trust_region_radius"), 1u);
+  std::vector<algo::EpisodeRecord> resumed;
+  cb = {};
+  cb.on_episode = [&](const algo::EpisodeRecord& rec) { resumed.push_back(rec); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb, &saved);
+  ASSERT_EQ(resumed.size(), 3u);
+  for (std::size_t k = 0; k < resumed.size(); ++k) {
+    EXPECT_EQ(resumed[k].theta, r[k + 4].theta) << "episode " << k + 5;
+    EXPECT_EQ(resumed[k].details.numbers.at("trust_region_radius"),
+              r[k + 4].details.numbers.at("trust_region_radius"));
+  }
+  // A radius outside (0, 1] in a checkpoint is an error, not a silent reset.
+  saved.extra["trust_region_radius"] = VectorXd::Constant(1, 2.0);
+  EXPECT_THROW(algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                                     e.setup.prior_parameters, o, cb, &saved),
+               InvalidArgument);
+}

@@ -21,6 +21,8 @@ enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPol
 
 // RunState::extra's record of the best policy's replays: [replayed identically, solved] as 0/1.
 constexpr const char* kBestPolicyKey = "best_policy_replays";
+// The trust region's radius after the last episode (BlackDropsOptions::trust_region).
+constexpr const char* kTrustRegionKey = "trust_region_radius";
 
 }  // namespace
 
@@ -53,6 +55,8 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   if (reevaluation_candidates < 1) return fail("reevaluation_candidates must be >= 1");
   if (rollouts.rollouts < 1) return fail("rollouts.rollouts must be >= 1");
   if (rollouts.batch < 1) return fail("rollouts.batch must be >= 1");
+  if (!(trust_region_min > 0 && trust_region_min <= 1))
+    return fail("trust_region_min must be in (0, 1]");
   std::string w;
   if (!cmaes.IsValid(&w)) return fail("cmaes: " + w);
   if (!model.IsValid(&w)) return fail("model: " + w);
@@ -72,18 +76,33 @@ RunSummary BlackDrops::run(const Problem& problem, const Callbacks& callbacks,
                          problem.prior_parameters, options_, callbacks, resume);
 }
 
+void trust_region_box(const VectorXd& centre, double b, double region, VectorXd& lower,
+                      VectorXd& upper) {
+  if (!(region > 0 && region <= 1))
+    throw InvalidArgument("trust region: radius " + std::to_string(region) + " is outside (0, 1]");
+  if (!(b > 0)) throw InvalidArgument("trust region: the box half-width must be > 0");
+  lower = (centre.array() - region * b).cwiseMax(-b).matrix();
+  upper = (centre.array() + region * b).cwiseMin(b).matrix();
+}
+
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
                                    const policy::Policy& policy, const VectorXd& theta0,
                                    const BlackDropsOptions& options, std::uint64_t seed,
                                    const std::function<bool(const opt::CmaesProgress&)>& on_gen,
-                                   long* nonfinite_steps, bool start_may_be_chosen) {
+                                   long* nonfinite_steps, bool start_may_be_chosen,
+                                   double region) {
   const int n = policy.param_dim();
   check_size("optimize_policy: theta0 vs policy parameters", n, theta0.size());
-  const VectorXd lower = VectorXd::Constant(n, -options.theta_bound);
-  const VectorXd upper = VectorXd::Constant(n, options.theta_bound);
+  VectorXd lower = VectorXd::Constant(n, -options.theta_bound);
+  VectorXd upper = VectorXd::Constant(n, options.theta_bound);
+  if (region < 1) {
+    const VectorXd centre = theta0.cwiseMax(lower).cwiseMin(upper);
+    trust_region_box(centre, options.theta_bound, region, lower, upper);
+  }
   opt::CmaesOptions co = options.cmaes;
   co.seed = seed;
   if (co.sigma0 <= 0) co.sigma0 = options.theta_bound;  // settings.md §5: sigma0 = b
+  if (region < 1) co.sigma0 *= region;
   co.evaluate_start = options.keep_start_point;
   const bool reevaluate = options.selection == PolicySelection::kReevaluate;
   if (reevaluate) co.keep_best = std::max(co.keep_best, options.reevaluation_candidates);
@@ -178,6 +197,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   // The best policy's replays (options.skip_known_replays): whether a run of it again gave the
   // same return, and whether its best episode solved the task.
   bool best_replayed_identically = false, best_solved = false;
+  double region = 1.0;  // the trust region's radius, a fraction of theta_bound
   int first_episode = 1;
   if (resume) {
     if (resume->episodes_done < 1 || resume->episodes_done > options.episodes)
@@ -200,6 +220,14 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         throw InvalidArgument(std::string("resume: extra.") + kBestPolicyKey + " must hold 2 values");
       best_replayed_identically = it->second[0] != 0;
       best_solved = it->second[1] != 0;
+    }
+    // A checkpoint without a radius (no trust region, or from before it existed): the whole box.
+    const auto tr = resume->extra.find(kTrustRegionKey);
+    if (tr != resume->extra.end()) {
+      if (tr->second.size() != 1 || !(tr->second[0] > 0 && tr->second[0] <= 1))
+        throw InvalidArgument(std::string("resume: extra.") + kTrustRegionKey +
+                              " must hold one value in (0, 1]");
+      region = tr->second[0];
     }
   }
   auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
@@ -262,6 +290,9 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         for (int i = 0; i < n; ++i) theta0[i] = rng.uniform(-options.theta_bound, options.theta_bound);
       }
       const int runs = episode == 1 ? options.prior_optimizations : 1;
+      // The trust region applies once a real policy centres it.
+      const double search_region = options.trust_region && best_theta.size() ? region : 1.0;
+      if (options.trust_region) rec.details.numbers["trust_region_radius"] = search_region;
       const bool skip_replay = options.skip_known_replays && best_theta.size() &&
                                best_replayed_identically && !best_solved;
       if (skip_replay) rec.details.numbers["replay_skipped"] = 1;
@@ -270,7 +301,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         auto s = optimize_policy(*task, *planning_model, policy, theta0, options,
                                  derive_seed(options.seed, {ep, kPolicySearch,
                                                             static_cast<std::uint64_t>(run)}),
-                                 on_gen, &rec.nonfinite_model_steps, !skip_replay);
+                                 on_gen, &rec.nonfinite_model_steps, !skip_replay, search_region);
         rec.evaluations += s.search.evaluations;
         if (run == 0 || s.value > chosen_value) {
           chosen_value = s.value;
@@ -324,6 +355,10 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       best_replayed_identically = true;
     else if (rec.real_return > best_return)
       best_replayed_identically = false;
+    // The trust region learns from every new policy run from it: TuRBO's success / failure rule.
+    if (options.trust_region && best_theta.size() && !replay && !rec.random_policy)
+      region = rec.real_return > best_return ? std::min(1.0, 2 * region)
+                                             : std::max(options.trust_region_min, region / 2);
     if (rec.real_return > best_return) {
       best_return = rec.real_return;
       best_theta = rec.theta;
@@ -343,6 +378,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       st.model = model->state();
       st.extra[kBestPolicyKey] = Eigen::Vector2d(best_replayed_identically ? 1 : 0,
                                                  best_solved ? 1 : 0);
+      if (options.trust_region) st.extra[kTrustRegionKey] = VectorXd::Constant(1, region);
       callbacks.on_state(st);
     }
   }

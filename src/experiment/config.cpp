@@ -170,6 +170,13 @@ std::vector<KeySpec> build_base_keys() {
        "deterministic there) and did not solve the task, the next episode runs the search's best "
        "other policy instead of a third identical run (false: it may be replayed again; measured "
        "in docs/architecture.md, \"The policy search\")"});
+  add({"optimizer.trust_region", "bool", boolean(d.trust_region), 0, 0, {}, "-",
+       "from episode 2 on, search only within r * policy.bound of the best real policy, with "
+       "CMA-ES's sigma0 scaled by r (r = 1: the whole box); r starts at 1, doubles after a new "
+       "policy beat the best real return and halves after one that did not (TuRBO's rule; "
+       "docs/architecture.md, \"The policy search\")"});
+  add({"optimizer.trust_region_min", "double", num(d.trust_region_min), 1e-6, 1, {}, "-",
+       "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",

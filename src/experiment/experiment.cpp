@@ -62,6 +62,8 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   a.prior_optimizations = static_cast<int>(get_int(st, "optimizer.prior_optimizations"));
   a.keep_start_point = get_bool(st, "optimizer.keep_start");
   a.skip_known_replays = get_bool(st, "optimizer.skip_known_replays");
+  a.trust_region = get_bool(st, "optimizer.trust_region");
+  a.trust_region_min = get_double(st, "optimizer.trust_region_min");
   a.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
                                                             : algo::PolicySelection::kReevaluate;
   a.reevaluation_rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));

@@ -75,6 +75,17 @@ struct BlackDropsOptions {
   /// usual. Off by default: measured on a deterministic task, it freed one stuck run and cost
   /// about as much elsewhere (docs/architecture.md, "The policy search", links the study).
   bool skip_known_replays = false;
+  /// A trust region around the best real policy (off by default). From episode 2 on, the search
+  /// box is theta_best +- r b, intersected with [-b, b], and CMA-ES's sigma0 is scaled by r. The
+  /// radius r starts at 1 (the whole box). After an episode that ran a new policy, r doubles (up to
+  /// 1) when that policy's real return beat the best before it, and halves (down to
+  /// trust_region_min) when it did not: the success/failure rule of TuRBO (Eriksson et al. 2019,
+  /// with one success or one failure) applied to the real episodes, so that a model that keeps
+  /// overrating policies far from its data is only searched near the best one that was run.
+  /// Episodes that run the best policy again leave r unchanged.
+  bool trust_region = false;
+  /// The smallest trust-region radius r, as a fraction of the box half-width b, in (0, 1].
+  double trust_region_min = 0.125;
   /// How the returned policy is chosen among the evaluated ones.
   PolicySelection selection = PolicySelection::kReevaluate;
   /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1), on common random
@@ -140,19 +151,29 @@ struct PolicySearchResult {
   int candidates = 0;        ///< kReevaluate: size of the short list (0 otherwise)
 };
 
+/// The search box of a trust region of radius `region` (a fraction of b, in (0, 1]) around
+/// `centre` (dim n): [max(-b, centre - region b), min(b, centre + region b)] per coordinate, written
+/// to lower and upper (resized to n). optimize_policy searches the whole box at region = 1.
+/// Throws InvalidArgument when region is outside (0, 1] or b <= 0. Thread-safe.
+void trust_region_box(const VectorXd& centre, double b, double region, VectorXd& lower,
+                      VectorXd& upper);
+
 /// Maximises the mean model return (paper §IV-C) over theta in [-b, b]^n with BIPOP-aCMA-ES
 /// starting from theta0 (dim n, clamped into the box), then selects the returned policy per
 /// options.selection (a search that on_gen stopped returns its best single evaluation, without
 /// re-evaluation). With options.keep_start_point, theta0 is evaluated first and is a candidate
 /// like any other. With start_may_be_chosen false the start still centres the search and is
 /// evaluated (with keep_start_point), but the returned policy is the best other one (the start
-/// only when nothing else was evaluated); see BlackDropsOptions::skip_known_replays.
+/// only when nothing else was evaluated); see BlackDropsOptions::skip_known_replays. With
+/// region < 1 (BlackDropsOptions::trust_region) the search runs in trust_region_box(theta0, b,
+/// region) with sigma0 scaled by region.
 /// Deterministic for a given seed whatever the thread count. Throws InvalidArgument on size
 /// mismatch. Exposed for benchmarks and tests.
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
                                    const policy::Policy& policy, const VectorXd& theta0,
                                    const BlackDropsOptions& options, std::uint64_t seed,
                                    const std::function<bool(const opt::CmaesProgress&)>& on_gen,
-                                   long* nonfinite_steps, bool start_may_be_chosen = true);
+                                   long* nonfinite_steps, bool start_may_be_chosen = true,
+                                   double region = 1.0);
 
 }  // namespace drops::algo
