@@ -1,0 +1,139 @@
+// hexapod_rollout_error: where a hexapod model's rollout of a held-out episode drifts from what
+// the "real" robot did (docs/hexapod.md, "Why the model overrates gaits").
+//
+//   build/apps/tools/hexapod_rollout_error RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR]
+//
+// Trains a gp_prior model (fixed prior: REMOVED_LEG, -1 = intact) on the measured transitions of
+// episodes 1..K of RUN_DIR, then replays the recorded actions of EPISODE (K + 1 for a held-out
+// gait, <= K for one the model was trained on; the gait is
+// // open loop, so its actions depend on time only) from the recorded first state, on the mean of:
+//   prior        the prior alone;
+//   model        the model (prior + GP residual);
+//   model|joints the model with the joint angles and velocities reset to the measured ones before
+//                every step (does the drift come through the joints?);
+//   model|body   the model with the body's state but x and y reset to the measured one before
+//                every step (the sum of one-step forward predictions from measured states).
+// Prints the forward distance / 4 s (the walking speed) of each, the real one, and the RMS error
+// of the body height, roll and pitch along the rollout. Mean rollouts, no sampling: a
+// diagnostic, single-threaded, no timing.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drops/core/errors.hpp"
+#include "drops/model/dynamics_model.hpp"
+#include "drops/hexapod/prior.hpp"
+#include "drops/hexapod/task.hpp"
+#include "hexapod_run_data.hpp"
+
+namespace {
+
+namespace hx = drops::hexapod;
+using drops::Transition;
+using drops::VectorXd;
+
+enum class Forcing { kNone, kJoints, kBody };
+
+struct RolloutError {
+  double speed = 0;      ///< forward distance / duration, m/s
+  double rms_z = 0;      ///< body height error, m
+  double rms_tilt = 0;   ///< roll and pitch error, rad
+};
+
+/// Mean rollout of `model` (or of the prior when model is null) along the recorded episode.
+RolloutError replay(const std::vector<Transition>& real, double dt,
+                    const drops::model::DynamicsModel* model, const hx::HexapodPrior& prior,
+                    const VectorXd& phi, Forcing forcing) {
+  VectorXd x = real.front().x;
+  VectorXd dx(hx::kStateDim);
+  drops::Prediction p;
+  double sq_z = 0, sq_tilt = 0;
+  for (std::size_t t = 0; t < real.size(); ++t) {
+    if (forcing == Forcing::kJoints) x.head(hx::kBodyPos) = real[t].x.head(hx::kBodyPos);
+    if (forcing == Forcing::kBody)
+      x.tail(hx::kStateDim - hx::kBodyPos - 2) = real[t].x.tail(hx::kStateDim - hx::kBodyPos - 2);
+    if (model != nullptr) {
+      model->predict(x, real[t].u, p);
+      dx = p.mean;
+    } else {
+      prior.evaluate(x, real[t].u, phi, dx);
+    }
+    x += dx;
+    const VectorXd next = real[t].x + real[t].dx;
+    sq_z += std::pow(x[hx::kBodyPos + 2] - next[hx::kBodyPos + 2], 2);
+    sq_tilt += std::pow(x[hx::kBodyPos + 3] - next[hx::kBodyPos + 3], 2) +
+               std::pow(x[hx::kBodyPos + 4] - next[hx::kBodyPos + 4], 2);
+  }
+  const double n = static_cast<double>(real.size());
+  RolloutError e;
+  e.speed = (x[hx::kBodyPos] - real.front().x[hx::kBodyPos]) / (n * dt);
+  e.rms_z = std::sqrt(sq_z / n);
+  e.rms_tilt = std::sqrt(sq_tilt / (2 * n));
+  return e;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 5 && argc != 8) {
+    std::fprintf(stderr,
+                 "usage: %s RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR]\n"
+                 "  mean rollouts of EPISODE's actions on the prior alone and on a gp_prior\n"
+                 "  model trained on episodes 1..K (REMOVED_LEG: -1 intact, 0..5)\n",
+                 argv[0]);
+    return 2;
+  }
+  try {
+    const std::string dir = argv[1];
+    const int k = std::atoi(argv[2]);
+    const int episode = std::atoi(argv[3]);
+    const int leg = std::atoi(argv[4]);
+    const std::vector<Transition> train = drops::tools::read_episodes(dir, k);
+    const std::vector<Transition> test =
+        drops::tools::read_transitions(drops::tools::episode_file(dir, episode));
+    if (test.empty()) throw drops::InvalidArgument("episode " + std::to_string(episode) + " is empty");
+
+    auto task = std::make_shared<hx::HexapodTask>();
+    hx::HexapodPriorOptions prior_options;
+    prior_options.pool_capacity = 1;
+    auto prior = std::make_shared<hx::HexapodPrior>(prior_options);
+    const VectorXd phi = VectorXd::Constant(1, leg);
+    prior->check_phi(phi);
+    drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
+    fixed.values[0] = leg;
+    const drops::model::ModelOptions options =
+        drops::tools::gp_prior_options(argc == 8 ? argv + 5 : nullptr);
+    auto model = drops::model::make_model(options, task, prior, fixed);
+    model->learn(train);
+
+    const double dt = task->dt();
+    const Transition& last = test.back();
+    const double real_speed =
+        (last.x[hx::kBodyPos] + last.dx[hx::kBodyPos] - test.front().x[hx::kBodyPos]) /
+        (static_cast<double>(test.size()) * dt);
+    std::printf("%zu training transitions (episodes 1-%d); episode %d walked %.4f m/s\n",
+                train.size(), k, episode, real_speed);
+    std::printf("%-14s | %12s | %10s | %10s\n", "rollout", "speed (m/s)", "RMS z (m)",
+                "RMS tilt");
+    struct Row {
+      const char* name;
+      const drops::model::DynamicsModel* model;
+      Forcing forcing;
+    };
+    for (const Row& r : {Row{"prior", nullptr, Forcing::kNone},
+                         Row{"model", model.get(), Forcing::kNone},
+                         Row{"prior|joints", nullptr, Forcing::kJoints},
+                         Row{"model|joints", model.get(), Forcing::kJoints},
+                         Row{"model|body", model.get(), Forcing::kBody}}) {
+      const RolloutError e = replay(test, dt, r.model, *prior, phi, r.forcing);
+      std::printf("%-14s | %12.4f | %10.4f | %10.4f\n", r.name, e.speed, e.rms_z, e.rms_tilt);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hexapod_rollout_error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
