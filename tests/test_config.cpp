@@ -111,6 +111,15 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
             model::GpMiCandidateStart::kInitial);
   const std::string c = error_of("", {"model.gp_mi.candidate_start=fresh"});
   EXPECT_NE(c.find("best_so_far, initial"), std::string::npos) << c;
+  // The trust region: off for the pendubot, on when asked, a clear error for a wrong value.
+  EXPECT_EQ(a.trust_region, d.trust_region);
+  EXPECT_FALSE(a.trust_region);
+  const auto tr = algo_of(settings("", {"optimizer.trust_region=true",
+                                        "optimizer.trust_region_min=0.25"}));
+  EXPECT_TRUE(tr.trust_region);
+  EXPECT_DOUBLE_EQ(tr.trust_region_min, 0.25);
+  const std::string t = error_of("", {"optimizer.trust_region_min=0"});
+  EXPECT_NE(t.find("optimizer.trust_region_min"), std::string::npos) << t;
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {

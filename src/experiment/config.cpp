@@ -47,7 +47,8 @@ std::map<std::string, std::string> fallback_defaults() {
           {"model.rprop.max_length_scale_ratio", num(d.model.rprop.max_length_scale_ratio)},
           {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"},
           {"model.gp_mi.score", score_name(d.model.gp_mi.score)},
-          {"model.gp_mi.candidate_start", candidate_start_name(d.model.gp_mi.candidate_start)}};
+          {"model.gp_mi.candidate_start", candidate_start_name(d.model.gp_mi.candidate_start)},
+          {"optimizer.trust_region", d.trust_region ? "true" : "false"}};
 }
 
 std::vector<KeySpec> build_base_keys() {
@@ -170,11 +171,12 @@ std::vector<KeySpec> build_base_keys() {
        "deterministic there) and did not solve the task, the next episode runs the search's best "
        "other policy instead of a third identical run (false: it may be replayed again; measured "
        "in docs/architecture.md, \"The policy search\")"});
-  add({"optimizer.trust_region", "bool", boolean(d.trust_region), 0, 0, {}, "-",
+  add({"optimizer.trust_region", "bool", "", 0, 0, {}, "-",
        "from episode 2 on, search only within r * policy.bound of the best real policy, with "
        "CMA-ES's sigma0 scaled by r (r = 1: the whole box); r starts at 1, doubles after a new "
        "policy beat the best real return and halves after one that did not (TuRBO's rule; "
-       "docs/architecture.md, \"The policy search\")"});
+       "docs/architecture.md, \"The policy search\"); empty = the task's choice: " +
+           std::string(boolean(d.trust_region)) + " unless the task says otherwise"});
   add({"optimizer.trust_region_min", "double", num(d.trust_region_min), 1e-6, 1, {}, "-",
        "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
   add({"optimizer.selection", "enum",
@@ -479,6 +481,7 @@ Settings load_run_settings(const Registry& registry, const std::string& yaml_tex
       {"optimizer.tol_fun", "1e-12"},
       {"optimizer.restart_from", "random"},
       {"model.gp_mi.candidate_start", "best_so_far"},
+      {"optimizer.trust_region", "false"},
   };
   std::vector<std::pair<std::string, YAML::Node>> present;
   flatten(parse_yaml(yaml_text, "config"), "",

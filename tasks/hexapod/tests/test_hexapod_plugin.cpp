@@ -79,6 +79,7 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   // GP-MI: the joint likelihood, every candidate's kernels from a new GP's (measured choices).
   EXPECT_EQ(a.model.gp_mi.score, model::GpMiScore::kSumOfLogLikelihoods);
   EXPECT_EQ(a.model.gp_mi.candidate_start, model::GpMiCandidateStart::kInitial);
+  EXPECT_TRUE(a.trust_region);  // around the best real gait (measured)
   EXPECT_EQ(e.setup.task->horizon(), 40);
   // PILCO's soft walls: on by default for the hexapod, with its own length-scale ratio.
   EXPECT_TRUE(a.model.rprop.penalty);
@@ -224,6 +225,9 @@ TEST(HexapodPlugin, ResolvedDerivedDefaultsEqualExplicitOnes) {
   auto old = experiment::load_run_settings(registry(), "task: hexapod\n", {});
   experiment::resolve_derived_defaults(registry(), old);
   EXPECT_EQ(old.at("model.gp_mi.candidate_start"), "best_so_far");
+  // ... and without the trust region, which the hexapod's runs have used since 2026-11-25.
+  EXPECT_EQ(hex.at("optimizer.trust_region"), "true");
+  EXPECT_EQ(old.at("optimizer.trust_region"), "false");
   EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "10");
   EXPECT_EQ(hex.at("model.rprop.penalty"), "on");
 }
