@@ -375,6 +375,11 @@ TEST_F(DeterministicPriorSearch, ASearchInATrustRegionStaysInItAndRegionOneChang
                                          1.0);
   EXPECT_EQ(one.theta, whole.theta);
   EXPECT_EQ(one.value, whole.value);
+  for (double bad : {0.0, 1.5, std::numeric_limits<double>::quiet_NaN()})
+    EXPECT_THROW(
+        algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr, true, bad),
+        InvalidArgument)
+        << bad;
 }
 
 // optimizer.trust_region in a run: the recorded radius of every episode follows TuRBO's rule from

@@ -84,18 +84,13 @@ int main(int argc, char** argv) {
     const std::vector<Transition> train = drops::tools::read_episodes(dir, k);
     const std::vector<Transition> test = read_transitions(episode_file(dir, k + 1));
 
-    auto task = std::make_shared<hx::HexapodTask>();
-    hx::HexapodPriorOptions prior_options;
-    prior_options.pool_capacity = 1;
-    auto prior = std::make_shared<hx::HexapodPrior>(prior_options);
-    prior->check_phi(VectorXd::Constant(1, leg));
-    drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
-    fixed.values[0] = leg;  // gp_prior keeps the starting values
     const drops::model::ModelOptions options =
         drops::tools::gp_prior_options(words == 7 ? argv + 4 : nullptr);
-    auto model = drops::model::make_model(options, task, prior, fixed);
-    model->learn(train);
-    const VectorXd phi = VectorXd::Constant(1, leg);
+    const drops::tools::FixedLegModel fitted =
+        drops::tools::fit_fixed_leg_model(leg, options, train);
+    const auto& model = fitted.model;
+    const auto& prior = fitted.prior;
+    const VectorXd& phi = fitted.phi;
     VectorXd dx_prior(hx::kStateDim);
     // The "offset" model: the prior shifted by the training data's mean residual.
     std::unique_ptr<drops::model::DynamicsModel> shifted;
@@ -106,8 +101,9 @@ int main(int argc, char** argv) {
         mean_residual += t.dx - dx_prior;
       }
       mean_residual /= static_cast<double>(train.size());
-      shifted = drops::model::make_model(options, task,
-                                         std::make_shared<OffsetPrior>(prior, mean_residual), fixed);
+      shifted = drops::model::make_model(options, fitted.task,
+                                         std::make_shared<OffsetPrior>(prior, mean_residual),
+                                         fitted.parameters);
       shifted->learn(train);
     }
 

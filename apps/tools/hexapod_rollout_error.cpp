@@ -94,22 +94,16 @@ int main(int argc, char** argv) {
     const std::vector<Transition> train = drops::tools::read_episodes(dir, k);
     const std::vector<Transition> test =
         drops::tools::read_transitions(drops::tools::episode_file(dir, episode));
-    if (test.empty()) throw drops::InvalidArgument("episode " + std::to_string(episode) + " is empty");
+    if (test.empty())
+      throw drops::InvalidArgument("episode " + std::to_string(episode) + " is empty");
 
-    auto task = std::make_shared<hx::HexapodTask>();
-    hx::HexapodPriorOptions prior_options;
-    prior_options.pool_capacity = 1;
-    auto prior = std::make_shared<hx::HexapodPrior>(prior_options);
-    const VectorXd phi = VectorXd::Constant(1, leg);
-    prior->check_phi(phi);
-    drops::model::PriorParameters fixed = hx::HexapodPrior::prior_parameters();
-    fixed.values[0] = leg;
-    const drops::model::ModelOptions options =
-        drops::tools::gp_prior_options(argc == 8 ? argv + 5 : nullptr);
-    auto model = drops::model::make_model(options, task, prior, fixed);
-    model->learn(train);
+    const drops::tools::FixedLegModel fitted = drops::tools::fit_fixed_leg_model(
+        leg, drops::tools::gp_prior_options(argc == 8 ? argv + 5 : nullptr), train);
+    const auto& model = fitted.model;
+    const auto& prior = fitted.prior;
+    const VectorXd& phi = fitted.phi;
 
-    const double dt = task->dt();
+    const double dt = fitted.task->dt();
     const Transition& last = test.back();
     const double real_speed =
         (last.x[hx::kBodyPos] + last.dx[hx::kBodyPos] - test.front().x[hx::kBodyPos]) /

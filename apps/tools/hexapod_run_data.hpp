@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -12,8 +13,10 @@
 #include "drops/core/types.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/model/dynamics_model.hpp"
+#include "drops/hexapod/prior.hpp"
 #include "drops/hexapod/robot.hpp"
 #include "drops/hexapod/simulator.hpp"
+#include "drops/hexapod/task.hpp"
 
 namespace drops::tools {
 
@@ -73,6 +76,35 @@ inline model::ModelOptions gp_prior_options(char** words) {
     options.rprop.max_snr = std::atof(words[2]);
   }
   return options;
+}
+
+/// A gp_prior model of the hexapod whose prior keeps one removed leg, fitted as the tools fit it.
+struct FixedLegModel {
+  std::shared_ptr<hexapod::HexapodTask> task;
+  std::shared_ptr<hexapod::HexapodPrior> prior;  ///< one simulator (pool capacity 1)
+  model::PriorParameters parameters;             ///< the prior's phi = [leg]
+  VectorXd phi;                                  ///< the same phi (dim 1)
+  std::unique_ptr<model::DynamicsModel> model;   ///< learned on `data`
+};
+
+/// Builds and learns the gp_prior model of `options` (gp_prior_options) with the prior at
+/// removed leg `leg` (-1 intact, 0..5) on `data` (48-D states, 18 actions). Throws InvalidArgument
+/// for a leg outside the prior family, and what learn() throws. Single-threaded use.
+inline FixedLegModel fit_fixed_leg_model(int leg, const model::ModelOptions& options,
+                                         const std::vector<Transition>& data) {
+  namespace hx = drops::hexapod;
+  FixedLegModel m;
+  m.task = std::make_shared<hx::HexapodTask>();
+  hx::HexapodPriorOptions prior_options;
+  prior_options.pool_capacity = 1;
+  m.prior = std::make_shared<hx::HexapodPrior>(prior_options);
+  m.phi = VectorXd::Constant(1, leg);
+  m.prior->check_phi(m.phi);
+  m.parameters = hx::HexapodPrior::prior_parameters();
+  m.parameters.values[0] = leg;  // gp_prior keeps the starting values
+  m.model = model::make_model(options, m.task, m.prior, m.parameters);
+  m.model->learn(data);
+  return m;
 }
 
 }  // namespace drops::tools

@@ -93,6 +93,9 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
                                    double region) {
   const int n = policy.param_dim();
   check_size("optimize_policy: theta0 vs policy parameters", n, theta0.size());
+  if (!(region > 0 && region <= 1))
+    throw InvalidArgument("optimize_policy: trust region " + std::to_string(region) +
+                          " is outside (0, 1]");
   VectorXd lower = VectorXd::Constant(n, -options.theta_bound);
   VectorXd upper = VectorXd::Constant(n, options.theta_bound);
   if (region < 1) {

@@ -168,7 +168,7 @@ void trust_region_box(const VectorXd& centre, double b, double region, VectorXd&
 /// region < 1 (BlackDropsOptions::trust_region) the search runs in trust_region_box(theta0, b,
 /// region) with sigma0 scaled by region.
 /// Deterministic for a given seed whatever the thread count. Throws InvalidArgument on size
-/// mismatch. Exposed for benchmarks and tests.
+/// mismatch or a region outside (0, 1]. Exposed for benchmarks and tests.
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
                                    const policy::Policy& policy, const VectorXd& theta0,
                                    const BlackDropsOptions& options, std::uint64_t seed,
