@@ -107,7 +107,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     // (docs/results/hexapod.md, "A trust region around the best real gait").
     // Length scales within 3 times their input's spread (10 before 2026-11-25): the model's
     // rollouts err less on new gaits and on the data (docs/hexapod.md, "Tighter walls on the
-    // length scales"; docs/results/hexapod.md, "Tighter walls").
+    // length scales"; docs/results/hexapod.md, the section of the same name).
     return {{"policy.bound", "0.5"},
             {"optimizer.max_evaluations", "5000"},
             {"optimizer.trust_region", "true"},
