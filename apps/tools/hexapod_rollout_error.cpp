@@ -1,12 +1,14 @@
 // hexapod_rollout_error: where a hexapod model's rollout of a held-out episode drifts from what
 // the "real" robot did (docs/hexapod.md, "Why the model overrates gaits").
 //
-//   build/apps/tools/hexapod_rollout_error RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR]
+//   build/apps/tools/hexapod_rollout_error RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR
+//                                          [samples N]]
 //
 // Trains a gp_prior model (fixed prior: REMOVED_LEG, -1 = intact) on the measured transitions of
 // episodes 1..K of RUN_DIR, then replays the recorded actions of EPISODE (K + 1 for a held-out
-// gait, <= K for one the model was trained on; the gait is
-// // open loop, so its actions depend on time only) from the recorded first state, on the mean of:
+// gait, <= K for one the model was trained on; the gait is open loop, so its actions depend on
+// time only; a comma-separated list replays each on the same model) from the recorded first
+// state, on the mean of:
 //   prior        the prior alone;
 //   model        the model (prior + GP residual);
 //   model|joints the model with the joint angles and velocities reset to the measured ones before
@@ -15,7 +17,11 @@
 //                every step (the sum of one-step forward predictions from measured states).
 // Prints the forward distance / 4 s (the walking speed) of each, the real one, and the RMS error
 // of the body height, roll and pitch along the rollout. Mean rollouts, no sampling: a
-// diagnostic, single-threaded, no timing.
+// diagnostic, single-threaded, no timing. With "samples N", also N sampled rollouts of the model
+// (each draw clipped at 1 sigma, as the policy search's; rollout i on stream i, so two episodes
+// replayed with the same N see common random numbers): the mean, standard deviation and 25th
+// percentile of their speeds, the spread that a pessimistic policy choice would use.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +30,8 @@
 #include <vector>
 
 #include "drops/core/errors.hpp"
+#include "drops/core/rng.hpp"
+#include "drops/rollout/rollout.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/hexapod/prior.hpp"
 #include "drops/hexapod/task.hpp"
@@ -75,55 +83,94 @@ RolloutError replay(const std::vector<Transition>& real, double dt,
   return e;
 }
 
+/// Speed (forward distance / duration, m/s) of a sampled rollout of `model` along the recorded
+/// episode's actions, its draws from `rng` clipped at 1 sigma.
+double sampled_speed(const std::vector<Transition>& real, double dt,
+                     const drops::model::DynamicsModel& model, drops::Rng& rng) {
+  drops::rollout::RolloutOptions options;
+  options.clip = 1.0;
+  const drops::rollout::ModelSystem system(model, options);
+  VectorXd x = real.front().x;
+  for (const Transition& t : real) x = system.step(x, t.u, rng);
+  return (x[hx::kBodyPos] - real.front().x[hx::kBodyPos]) /
+         (static_cast<double>(real.size()) * dt);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 5 && argc != 8) {
+  if (argc != 5 && argc != 8 && argc != 10) {
     std::fprintf(stderr,
-                 "usage: %s RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR]\n"
+                 "usage: %s RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR [samples N]]\n"
                  "  mean rollouts of EPISODE's actions on the prior alone and on a gp_prior\n"
-                 "  model trained on episodes 1..K (REMOVED_LEG: -1 intact, 0..5)\n",
+                 "  model trained on episodes 1..K (REMOVED_LEG: -1 intact, 0..5); samples N:\n"
+                 "  also N sampled model rollouts (mean, sd, 25th percentile of their speeds)\n",
                  argv[0]);
     return 2;
   }
   try {
     const std::string dir = argv[1];
     const int k = std::atoi(argv[2]);
-    const int episode = std::atoi(argv[3]);
     const int leg = std::atoi(argv[4]);
+    std::vector<int> episodes;  // EPISODE, or a comma-separated list replayed on one model
+    for (std::size_t at = 0;;) {
+      const std::string list = argv[3];
+      const std::size_t comma = list.find(',', at);
+      episodes.push_back(std::atoi(list.substr(at, comma - at).c_str()));
+      if (comma == std::string::npos) break;
+      at = comma + 1;
+    }
+    int samples = 0;
+    if (argc == 10) {
+      if (std::string(argv[8]) != "samples") throw drops::InvalidArgument("expected 'samples'");
+      samples = std::atoi(argv[9]);
+      if (samples < 2) throw drops::InvalidArgument("samples N needs N >= 2");
+    }
     const std::vector<Transition> train = drops::tools::read_episodes(dir, k);
-    const std::vector<Transition> test =
-        drops::tools::read_transitions(drops::tools::episode_file(dir, episode));
-    if (test.empty())
-      throw drops::InvalidArgument("episode " + std::to_string(episode) + " is empty");
-
     const drops::tools::FixedLegModel fitted = drops::tools::fit_fixed_leg_model(
-        leg, drops::tools::gp_prior_options(argc == 8 ? argv + 5 : nullptr), train);
+        leg, drops::tools::gp_prior_options(argc >= 8 ? argv + 5 : nullptr), train);
     const auto& model = fitted.model;
-    const auto& prior = fitted.prior;
-    const VectorXd& phi = fitted.phi;
-
     const double dt = fitted.task->dt();
-    const Transition& last = test.back();
-    const double real_speed =
-        (last.x[hx::kBodyPos] + last.dx[hx::kBodyPos] - test.front().x[hx::kBodyPos]) /
-        (static_cast<double>(test.size()) * dt);
-    std::printf("%zu training transitions (episodes 1-%d); episode %d walked %.4f m/s\n",
-                train.size(), k, episode, real_speed);
-    std::printf("%-14s | %12s | %10s | %10s\n", "rollout", "speed (m/s)", "RMS z (m)",
-                "RMS tilt");
-    struct Row {
-      const char* name;
-      const drops::model::DynamicsModel* model;
-      Forcing forcing;
-    };
-    for (const Row& r : {Row{"prior", nullptr, Forcing::kNone},
-                         Row{"model", model.get(), Forcing::kNone},
-                         Row{"prior|joints", nullptr, Forcing::kJoints},
-                         Row{"model|joints", model.get(), Forcing::kJoints},
-                         Row{"model|body", model.get(), Forcing::kBody}}) {
-      const RolloutError e = replay(test, dt, r.model, *prior, phi, r.forcing);
-      std::printf("%-14s | %12.4f | %10.4f | %10.4f\n", r.name, e.speed, e.rms_z, e.rms_tilt);
+    for (const int episode : episodes) {
+      const std::vector<Transition> test =
+          drops::tools::read_transitions(drops::tools::episode_file(dir, episode));
+      if (test.empty())
+        throw drops::InvalidArgument("episode " + std::to_string(episode) + " is empty");
+      const Transition& last = test.back();
+      const double real_speed =
+          (last.x[hx::kBodyPos] + last.dx[hx::kBodyPos] - test.front().x[hx::kBodyPos]) /
+          (static_cast<double>(test.size()) * dt);
+      std::printf("%zu training transitions (episodes 1-%d); episode %d walked %.4f m/s\n",
+                  train.size(), k, episode, real_speed);
+      std::printf("%-14s | %12s | %10s | %10s\n", "rollout", "speed (m/s)", "RMS z (m)",
+                  "RMS tilt");
+      struct Row {
+        const char* name;
+        const drops::model::DynamicsModel* model;
+        Forcing forcing;
+      };
+      for (const Row& r : {Row{"prior", nullptr, Forcing::kNone},
+                           Row{"model", model.get(), Forcing::kNone},
+                           Row{"prior|joints", nullptr, Forcing::kJoints},
+                           Row{"model|joints", model.get(), Forcing::kJoints},
+                           Row{"model|body", model.get(), Forcing::kBody}}) {
+        const RolloutError e = replay(test, dt, r.model, *fitted.prior, fitted.phi, r.forcing);
+        std::printf("%-14s | %12.4f | %10.4f | %10.4f\n", r.name, e.speed, e.rms_z, e.rms_tilt);
+      }
+      if (samples == 0) continue;
+      std::vector<double> v;
+      for (int i = 0; i < samples; ++i) {
+        drops::Rng rng(static_cast<std::uint64_t>(i) + 1);
+        v.push_back(sampled_speed(test, dt, *model, rng));
+      }
+      double mean = 0, sq = 0;
+      for (double s : v) mean += s;
+      mean /= samples;
+      for (double s : v) sq += (s - mean) * (s - mean);
+      std::sort(v.begin(), v.end());
+      std::printf("%d sampled model rollouts: mean %.4f sd %.4f q25 %.4f min %.4f (m/s)\n",
+                  samples, mean, std::sqrt(sq / (samples - 1)),
+                  v[static_cast<std::size_t>(samples / 4)], v.front());
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hexapod_rollout_error: %s\n", e.what());
