@@ -382,6 +382,60 @@ TEST_F(DeterministicPriorSearch, ASearchInATrustRegionStaysInItAndRegionOneChang
         << bad;
 }
 
+// optimizer.improvement_margin in one search: the start's re-evaluated value is its model return;
+// a margin below the best candidate's gain over the start changes nothing, one above it returns
+// the start (recorded as kept by the margin).
+TEST_F(DeterministicPriorSearch, TheStartIsReturnedUnlessACandidateBeatsItByTheMargin) {
+  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
+  o.selection = algo::PolicySelection::kReevaluate;
+  o.keep_start_point = true;
+  const auto plain = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  ASSERT_NE(plain.selected, "start");
+  EXPECT_FALSE(plain.kept_by_margin);
+  EXPECT_NEAR(plain.start_value, model_return(start), 1e-9 * std::max(1.0, plain.value));
+  const double gain = plain.value - plain.start_value;
+  ASSERT_GT(gain, 0);
+  o.improvement_margin = 0.5 * gain;
+  const auto below = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  EXPECT_EQ(below.theta, plain.theta);
+  EXPECT_FALSE(below.kept_by_margin);
+  o.improvement_margin = 1.5 * gain;
+  const auto above = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  EXPECT_EQ(above.theta, start);
+  EXPECT_EQ(above.selected, "start");
+  EXPECT_TRUE(above.kept_by_margin);
+  EXPECT_EQ(above.value, above.start_value);
+  o.improvement_margin = -1;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("improvement_margin"), std::string::npos) << why;
+}
+
+// optimizer.improvement_margin in a run: with a margin no model gain can reach, every episode
+// after the first runs the first episode's policy again; the first (planned on the prior, from a
+// guess) is unaffected, so it equals the run without the margin.
+TEST(BlackDrops, AnUnreachableImprovementMarginRunsTheBestRealPolicyAgain) {
+  const std::vector<std::string> ov = {"episodes=3", "model.type=gp_prior",
+                                       "optimizer.max_evaluations=100",
+                                       "optimizer.prior_optimizations=1"};
+  auto with = ov;
+  with.push_back("optimizer.improvement_margin=1e6");
+  const auto plain = run(1, ov), kept = run(1, with);
+  ASSERT_EQ(kept.size(), 3u);
+  ASSERT_EQ(plain.size(), 3u);
+  EXPECT_EQ(kept[0].theta, plain[0].theta);
+  EXPECT_EQ(kept[0].details.numbers.count("kept_by_margin"), 0u);
+  int moved_without = 0;
+  for (std::size_t k = 1; k < kept.size(); ++k) {
+    EXPECT_EQ(kept[k].theta, kept[0].theta) << "episode " << k + 1;
+    EXPECT_EQ(kept[k].selected, "start") << "episode " << k + 1;
+    ASSERT_EQ(kept[k].details.numbers.count("start_reevaluated_return"), 1u);
+    EXPECT_EQ(kept[k].details.numbers.at("start_reevaluated_return"), kept[k].reevaluated_return);
+    if (!(plain[k].theta.array() == plain[0].theta.array()).all()) ++moved_without;
+  }
+  EXPECT_GT(moved_without, 0);  // without the margin the run does move: the test can fail
+}
+
 // optimizer.trust_region in a run: the recorded radius of every episode follows TuRBO's rule from
 // the episodes before it (recomputed here from their real returns), every policy run lies within
 // its radius of the best real policy before it, and a run resumed from a checkpoint continues

@@ -103,8 +103,15 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
   EXPECT_EQ(a.predicted_rollouts, d.predicted_rollouts);
   EXPECT_EQ(algo_of(settings("", {"rollouts.statistic=median"})).rollouts.statistic,
             rollout::ReturnStatistic::kMedian);
+  const algo::BlackDropsOptions q =
+      algo_of(settings("", {"rollouts.statistic=quantile", "rollouts.quantile=0.1"}));
+  EXPECT_EQ(q.rollouts.statistic, rollout::ReturnStatistic::kQuantile);
+  EXPECT_DOUBLE_EQ(q.rollouts.quantile, 0.1);
+  EXPECT_DOUBLE_EQ(a.rollouts.quantile, d.rollouts.quantile);
   const std::string m = error_of("", {"rollouts.statistic=mode"});
-  EXPECT_NE(m.find("mean, median"), std::string::npos) << m;
+  EXPECT_NE(m.find("mean, median, quantile"), std::string::npos) << m;
+  const std::string mq = error_of("", {"rollouts.quantile=1"});
+  EXPECT_NE(mq.find("rollouts.quantile"), std::string::npos) << mq;
   EXPECT_EQ(a.model.gp_mi.candidate_start, d.model.gp_mi.candidate_start);
   EXPECT_EQ(algo_of(settings("", {"model.gp_mi.candidate_start=initial"}))
                 .model.gp_mi.candidate_start,
@@ -120,6 +127,12 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
   EXPECT_DOUBLE_EQ(tr.trust_region_min, 0.25);
   const std::string t = error_of("", {"optimizer.trust_region_min=0"});
   EXPECT_NE(t.find("optimizer.trust_region_min"), std::string::npos) << t;
+  // The improvement margin: off for the pendubot, set when asked, a negative one refused.
+  EXPECT_EQ(a.improvement_margin, 0.0);
+  EXPECT_DOUBLE_EQ(algo_of(settings("", {"optimizer.improvement_margin=0.2"})).improvement_margin,
+                   0.2);
+  const std::string im = error_of("", {"optimizer.improvement_margin=-1"});
+  EXPECT_NE(im.find("optimizer.improvement_margin"), std::string::npos) << im;
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {
@@ -279,6 +292,7 @@ TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
   EXPECT_EQ(legacy.cmaes.tol_fun, 1e-12);
   EXPECT_EQ(legacy.cmaes.restart_start, opt::CmaesRestartStart::kRandom);
   EXPECT_FALSE(legacy.keep_start_point);
+  EXPECT_EQ(legacy.improvement_margin, 0.0);
   EXPECT_EQ(legacy.episodes, 20);  // the caller's overrides still apply
   const auto user = algo_of(settings(old_run));
   EXPECT_EQ(user.selection, algo::PolicySelection::kReevaluate);

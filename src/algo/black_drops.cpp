@@ -57,6 +57,8 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   if (rollouts.batch < 1) return fail("rollouts.batch must be >= 1");
   if (!(trust_region_min > 0 && trust_region_min <= 1))
     return fail("trust_region_min must be in (0, 1]");
+  if (!(improvement_margin >= 0 && std::isfinite(improvement_margin)))
+    return fail("improvement_margin must be finite and >= 0");
   std::string w;
   if (!cmaes.IsValid(&w)) return fail("cmaes: " + w);
   if (!model.IsValid(&w)) return fail("model: " + w);
@@ -164,6 +166,15 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
     Eigen::Index best = 0;
     for (Eigen::Index k = 1; k < means.size(); ++k)
       if (means[k] > means[best] || (std::isnan(means[best]) && !std::isnan(means[k]))) best = k;
+    if (origin.front() == "start") {
+      result.start_value = means[0];
+      // A candidate must beat the start by more than the margin (a NaN start never holds on).
+      if (best != 0 && options.improvement_margin > 0 && !std::isnan(means[0]) &&
+          !(means[best] > means[0] + options.improvement_margin)) {
+        best = 0;
+        result.kept_by_margin = true;
+      }
+    }
     result.theta = list[static_cast<std::size_t>(best)];
     result.value = means[best];
     result.selected = origin[static_cast<std::size_t>(best)];
@@ -299,9 +310,12 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       const bool skip_replay = options.skip_known_replays && best_theta.size() &&
                                best_replayed_identically && !best_solved;
       if (skip_replay) rec.details.numbers["replay_skipped"] = 1;
+      // The improvement margin guards a real policy only (episode 1 starts from a guess).
+      BlackDropsOptions search_options = options;
+      if (!best_theta.size()) search_options.improvement_margin = 0;
       double chosen_value = -std::numeric_limits<double>::infinity();
       for (int run = 0; run < runs && !interrupted_search; ++run) {
-        auto s = optimize_policy(*task, *planning_model, policy, theta0, options,
+        auto s = optimize_policy(*task, *planning_model, policy, theta0, search_options,
                                  derive_seed(options.seed, {ep, kPolicySearch,
                                                             static_cast<std::uint64_t>(run)}),
                                  on_gen, &rec.nonfinite_model_steps, !skip_replay, search_region);
@@ -314,6 +328,10 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
           rec.reevaluated_candidates = s.candidates;
           rec.reevaluated_return = s.candidates > 0 ? s.value
                                                     : std::numeric_limits<double>::quiet_NaN();
+          if (search_options.improvement_margin > 0 && !std::isnan(s.start_value)) {
+            rec.details.numbers["start_reevaluated_return"] = s.start_value;
+            rec.details.numbers["kept_by_margin"] = s.kept_by_margin ? 1 : 0;
+          }
         }
         theta0 = rec.theta;
       }

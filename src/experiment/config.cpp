@@ -179,6 +179,10 @@ std::vector<KeySpec> build_base_keys() {
            std::string(boolean(d.trust_region)) + " unless the task says otherwise"});
   add({"optimizer.trust_region_min", "double", num(d.trust_region_min), 1e-6, 1, {}, "-",
        "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
+  add({"optimizer.improvement_margin", "double", num(d.improvement_margin), 0, 1e6, {}, "return",
+       "from episode 2 on (optimizer.keep_start, optimizer.selection reevaluate): the best real "
+       "episode's policy is run again unless a candidate's re-evaluated value beats it by more "
+       "than this (0 = off): the model overrates policies it has not seen"});
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",
@@ -199,13 +203,18 @@ std::vector<KeySpec> build_base_keys() {
   add({"rollouts.count", "int", num(d.rollouts.rollouts), 1, 10000, {}, "-",
        "Monte-Carlo rollouts per policy evaluation, combined by rollouts.statistic"});
   add({"rollouts.statistic", "enum",
-       d.rollouts.statistic == rollout::ReturnStatistic::kMedian ? "median" : "mean", 0, 0,
-       {"mean", "median"}, "-",
+       d.rollouts.statistic == rollout::ReturnStatistic::kMedian     ? "median"
+       : d.rollouts.statistic == rollout::ReturnStatistic::kQuantile ? "quantile"
+                                                                      : "mean",
+       0, 0, {"mean", "median", "quantile"}, "-",
        "how a policy's rollout returns combine into its value on the model, in the search "
        "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = "
        "the expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
-       "predicted falls (docs/architecture.md, \"The policy search\"). The reported predicted "
-       "return is always the mean"});
+       "predicted falls (docs/architecture.md, \"The policy search\"); quantile = the "
+       "rollouts.quantile of the returns, below the median a pessimistic value that penalizes "
+       "policies the model is unsure of. The reported predicted return is always the mean"});
+  add({"rollouts.quantile", "double", num(d.rollouts.quantile), 0.001, 0.999, {}, "-",
+       "rollouts.statistic quantile: the quantile q of the rollouts' returns (0.5 = the median)"});
   add({"rollouts.clip", "double", num(d.rollouts.clip), 0, 100, {}, "sigma",
        "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
   add({"rollouts.batch", "int", num(d.rollouts.batch), 1, 1024, {}, "-",
@@ -482,6 +491,7 @@ Settings load_run_settings(const Registry& registry, const std::string& yaml_tex
       {"optimizer.restart_from", "random"},
       {"model.gp_mi.candidate_start", "best_so_far"},
       {"optimizer.trust_region", "false"},
+      {"optimizer.improvement_margin", "0"},
   };
   std::vector<std::pair<std::string, YAML::Node>> present;
   flatten(parse_yaml(yaml_text, "config"), "",

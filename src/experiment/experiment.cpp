@@ -64,14 +64,18 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   a.skip_known_replays = get_bool(st, "optimizer.skip_known_replays");
   a.trust_region = get_bool(st, "optimizer.trust_region");
   a.trust_region_min = get_double(st, "optimizer.trust_region_min");
+  a.improvement_margin = get_double(st, "optimizer.improvement_margin");
   a.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
                                                             : algo::PolicySelection::kReevaluate;
   a.reevaluation_rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));
   a.reevaluation_candidates = static_cast<int>(get_int(st, "optimizer.reevaluation_candidates"));
   a.rollouts.rollouts = static_cast<int>(get_int(st, "rollouts.count"));
   a.rollouts.clip = get_double(st, "rollouts.clip");
-  a.rollouts.statistic = st.at("rollouts.statistic") == "median" ? rollout::ReturnStatistic::kMedian
-                                                                 : rollout::ReturnStatistic::kMean;
+  const std::string& statistic = st.at("rollouts.statistic");
+  a.rollouts.statistic = statistic == "median"     ? rollout::ReturnStatistic::kMedian
+                         : statistic == "quantile" ? rollout::ReturnStatistic::kQuantile
+                                                   : rollout::ReturnStatistic::kMean;
+  a.rollouts.quantile = get_double(st, "rollouts.quantile");
   a.rollouts.batch = static_cast<int>(get_int(st, "rollouts.batch"));
   a.predicted_rollouts = static_cast<int>(get_int(st, "rollouts.predicted"));
   std::string why;
