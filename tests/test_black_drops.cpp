@@ -382,9 +382,10 @@ TEST_F(DeterministicPriorSearch, ASearchInATrustRegionStaysInItAndRegionOneChang
         << bad;
 }
 
-// optimizer.improvement_margin in one search: the start's re-evaluated value is its model return;
-// a margin below the best candidate's gain over the start changes nothing, one above it returns
-// the start (recorded as kept by the margin).
+// optimizer.improvement_margin in one search (a deterministic model, so the paired check's
+// per-stream differences all equal the chosen policy's gain over the start): the start's
+// re-evaluated value is its model return; a margin below the gain changes nothing, one above it
+// returns the start (recorded as kept by the margin).
 TEST_F(DeterministicPriorSearch, TheStartIsReturnedUnlessACandidateBeatsItByTheMargin) {
   const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
   o.selection = algo::PolicySelection::kReevaluate;
@@ -399,6 +400,9 @@ TEST_F(DeterministicPriorSearch, TheStartIsReturnedUnlessACandidateBeatsItByTheM
   const auto below = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
   EXPECT_EQ(below.theta, plain.theta);
   EXPECT_FALSE(below.kept_by_margin);
+  // Without sampling every stream's difference is the gain itself, and so is their median.
+  EXPECT_NEAR(below.paired_improvement, gain, 1e-9 * std::max(1.0, plain.value));
+  EXPECT_TRUE(std::isnan(plain.paired_improvement));  // no check without a margin
   o.improvement_margin = 1.5 * gain;
   const auto above = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
   EXPECT_EQ(above.theta, start);

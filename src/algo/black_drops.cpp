@@ -1,5 +1,6 @@
 #include "drops/algo/black_drops.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -17,7 +18,7 @@ double seconds_since(Clock::time_point t0) {
 
 // Stream tags: each random stream of a run is derive_seed(seed, {episode, tag, ...}).
 enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPolicy = 3,
-                                 kPredicted = 4, kReevaluation = 5 };
+                                 kPredicted = 4, kReevaluation = 5, kImprovementCheck = 6 };
 
 // RunState::extra's record of the best policy's replays: [replayed identically, solved] as 0/1.
 constexpr const char* kBestPolicyKey = "best_policy_replays";
@@ -168,11 +169,30 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
       if (means[k] > means[best] || (std::isnan(means[best]) && !std::isnan(means[k]))) best = k;
     if (origin.front() == "start") {
       result.start_value = means[0];
-      // A candidate must beat the start by more than the margin (a NaN start never holds on).
-      if (best != 0 && options.improvement_margin > 0 && !std::isnan(means[0]) &&
-          !(means[best] > means[0] + options.improvement_margin)) {
-        best = 0;
-        result.kept_by_margin = true;
+      if (best != 0 && options.improvement_margin > 0) {
+        // The paired check (BlackDropsOptions::improvement_margin): the start and the chosen
+        // candidate on R fresh streams, one rollout each, stream i shared by both.
+        const auto R = static_cast<std::size_t>(options.reevaluation_rollouts);
+        std::vector<VectorXd> pair(2 * R);
+        std::vector<std::uint64_t> pair_streams(2 * R);
+        for (std::size_t i = 0; i < R; ++i) {
+          pair[i] = list[0];
+          pair[R + i] = list[static_cast<std::size_t>(best)];
+          pair_streams[i] = pair_streams[R + i] = derive_seed(seed, {kImprovementCheck, i});
+        }
+        rollout::RolloutOptions one = options.rollouts;
+        one.rollouts = 1;
+        VectorXd r;
+        rollout::evaluate_policies(task, model, policy, pair, pair_streams, one, r, &stats);
+        std::vector<double> d(R);
+        for (std::size_t i = 0; i < R; ++i)
+          d[i] = r[static_cast<Eigen::Index>(R + i)] - r[static_cast<Eigen::Index>(i)];
+        std::sort(d.begin(), d.end());
+        result.paired_improvement = R % 2 ? d[R / 2] : 0.5 * (d[R / 2 - 1] + d[R / 2]);
+        if (!(result.paired_improvement > options.improvement_margin)) {
+          best = 0;
+          result.kept_by_margin = true;
+        }
       }
     }
     result.theta = list[static_cast<std::size_t>(best)];
@@ -331,6 +351,8 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
           if (search_options.improvement_margin > 0 && !std::isnan(s.start_value)) {
             rec.details.numbers["start_reevaluated_return"] = s.start_value;
             rec.details.numbers["kept_by_margin"] = s.kept_by_margin ? 1 : 0;
+            if (!std::isnan(s.paired_improvement))
+              rec.details.numbers["paired_improvement"] = s.paired_improvement;
           }
         }
         theta0 = rec.theta;

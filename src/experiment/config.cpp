@@ -180,9 +180,10 @@ std::vector<KeySpec> build_base_keys() {
   add({"optimizer.trust_region_min", "double", num(d.trust_region_min), 1e-6, 1, {}, "-",
        "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
   add({"optimizer.improvement_margin", "double", num(d.improvement_margin), 0, 1e6, {}, "return",
-       "from episode 2 on (optimizer.keep_start, optimizer.selection reevaluate): the best real "
-       "episode's policy is run again unless a candidate's re-evaluated value beats it by more "
-       "than this (0 = off): the model overrates policies it has not seen"});
+       "from episode 2 on (optimizer.keep_start, optimizer.selection reevaluate): a policy chosen "
+       "over the best real episode's is run only if, on optimizer.reevaluation_rollouts fresh "
+       "streams shared by both, the median of its return minus the best one's exceeds this "
+       "(0 = off); otherwise the best real policy is run again"});
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",

@@ -87,13 +87,18 @@ struct BlackDropsOptions {
   /// The smallest trust-region radius r, as a fraction of the box half-width b, in (0, 1].
   double trust_region_min = 0.125;
   /// A required improvement (return units, >= 0; 0 = off, the default). From episode 2 on, with
-  /// keep_start_point and selection kReevaluate, the policy of the best real episode (the start)
-  /// is run again unless the best re-evaluated candidate's value exceeds the start's by more
-  /// than this margin. The start's value is anchored by its own data, while the candidates' are
-  /// the maximum of many noisy estimates of policies the model has not seen, biased upwards (on
-  /// the hexapod: +0.028 m/s on held-out gaits, docs/hexapod.md), so a small predicted gain is
-  /// more often a worse policy than a better one. Episode 1 (the start is not a real policy) and
-  /// a start that may not be chosen (skip_known_replays) are unaffected.
+  /// keep_start_point and selection kReevaluate, when the re-evaluation chose a policy other than
+  /// the start (the best real episode's), a paired check on reevaluation_rollouts fresh streams
+  /// decides: the start and the chosen policy are rolled out once per stream, stream i shared by
+  /// both (common random numbers), and the chosen policy is run only if the median of the
+  /// per-stream return differences (chosen - start) exceeds this margin; otherwise the start is
+  /// run again. Fresh streams remove the winner's curse of picking the best of many noisy
+  /// values; the median of paired differences is not decided by the few streams in which one of
+  /// the two falls (an absorbing penalty), which on the hexapod dominate the mean (the best real
+  /// gait's mean model return was negative in 17 of 32 episodes, docs/results/hexapod.md, "An
+  /// improvement margin"), but a policy that falls in more streams than the start loses them.
+  /// Episode 1 (the start is not a real policy) and a start that may not be chosen
+  /// (skip_known_replays) are unaffected.
   double improvement_margin = 0;
   /// How the returned policy is chosen among the evaluated ones.
   PolicySelection selection = PolicySelection::kReevaluate;
@@ -160,9 +165,12 @@ struct PolicySearchResult {
   int candidates = 0;        ///< kReevaluate: size of the short list (0 otherwise)
   /// kReevaluate with the start on the short list: the start's re-evaluated value (NaN otherwise).
   double start_value = std::numeric_limits<double>::quiet_NaN();
-  /// The start was returned because the best candidate beat it by no more than
-  /// BlackDropsOptions::improvement_margin (it would have been returned without the margin).
+  /// The start was returned because the chosen candidate failed the paired check of
+  /// BlackDropsOptions::improvement_margin (it would have been returned without the check).
   bool kept_by_margin = false;
+  /// The paired check's median per-stream return difference, chosen - start (NaN when no check
+  /// ran).
+  double paired_improvement = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The search box of a trust region of radius `region` (a fraction of b, in (0, 1]) around
@@ -180,8 +188,9 @@ void trust_region_box(const VectorXd& centre, double b, double region, VectorXd&
 /// evaluated (with keep_start_point), but the returned policy is the best other one (the start
 /// only when nothing else was evaluated); see BlackDropsOptions::skip_known_replays. With
 /// region < 1 (BlackDropsOptions::trust_region) the search runs in trust_region_box(theta0, b,
-/// region) with sigma0 scaled by region. With kReevaluate, the start (when it may be chosen) is
-/// returned unless the best candidate beats it by more than options.improvement_margin.
+/// region) with sigma0 scaled by region. With kReevaluate and options.improvement_margin > 0, a
+/// candidate chosen over the start (when it may be chosen) must also pass the paired check
+/// described there, or the start is returned.
 /// Deterministic for a given seed whatever the thread count. Throws InvalidArgument on size
 /// mismatch or a region outside (0, 1]. Exposed for benchmarks and tests.
 PolicySearchResult optimize_policy(const rollout::Task& task, const model::DynamicsModel& model,
