@@ -94,9 +94,9 @@ struct BlackDropsOptions {
   /// per-stream return differences (chosen - start) exceeds this margin; otherwise the start is
   /// run again. Fresh streams remove the winner's curse of picking the best of many noisy
   /// values; the median of paired differences is not decided by the few streams in which one of
-  /// the two falls (an absorbing penalty), which on the hexapod dominate the mean (the best real
-  /// gait's mean model return was negative in 17 of 32 episodes, docs/results/hexapod.md, "An
-  /// improvement margin"), but a policy that falls in more streams than the start loses them.
+  /// the two falls into an absorbing penalty (which can dominate the means even for a policy
+  /// that never failed on the real system; docs/architecture.md, "An improvement margin"), but a
+  /// policy that falls in more streams than the start loses them.
   /// Episode 1 (the start is not a real policy) and a start that may not be chosen
   /// (skip_known_replays) are unaffected.
   double improvement_margin = 0;
