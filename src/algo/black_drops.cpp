@@ -185,8 +185,10 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
         VectorXd r;
         rollout::evaluate_policies(task, model, policy, pair, pair_streams, one, r, &stats);
         std::vector<double> d(R);
-        for (std::size_t i = 0; i < R; ++i)
+        for (std::size_t i = 0; i < R; ++i) {
           d[i] = r[static_cast<Eigen::Index>(R + i)] - r[static_cast<Eigen::Index>(i)];
+          if (std::isnan(d[i])) d[i] = -std::numeric_limits<double>::infinity();  // counts against
+        }
         std::sort(d.begin(), d.end());
         result.paired_improvement = R % 2 ? d[R / 2] : 0.5 * (d[R / 2 - 1] + d[R / 2]);
         if (!(result.paired_improvement > options.improvement_margin)) {
