@@ -20,7 +20,8 @@
 // diagnostic, single-threaded, no timing. With "samples N", also N sampled rollouts of the model
 // (each draw clipped at 1 sigma, as the policy search's; rollout i on stream i, so two episodes
 // replayed with the same N see common random numbers): the mean, standard deviation and 25th
-// percentile of their speeds, the spread that a pessimistic policy choice would use.
+// percentile of their speeds, the spread that a pessimistic policy choice would use, and how many
+// reached the task's tilt limit (a fall for the reward).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -84,14 +85,19 @@ RolloutError replay(const std::vector<Transition>& real, double dt,
 }
 
 /// Speed (forward distance / duration, m/s) of a sampled rollout of `model` along the recorded
-/// episode's actions, its draws from `rng` clipped at 1 sigma.
-double sampled_speed(const std::vector<Transition>& real, double dt,
-                     const drops::model::DynamicsModel& model, drops::Rng& rng) {
+/// episode's actions, its draws from `rng` clipped at 1 sigma; *fell is set when the rollout
+/// reached a state the task treats as a fall (HexapodTask::absorbing: the tilt limit).
+double sampled_speed(const std::vector<Transition>& real, double dt, const hx::HexapodTask& task,
+                     const drops::model::DynamicsModel& model, drops::Rng& rng, bool* fell) {
   drops::rollout::RolloutOptions options;
   options.clip = 1.0;
   const drops::rollout::ModelSystem system(model, options);
   VectorXd x = real.front().x;
-  for (const Transition& t : real) x = system.step(x, t.u, rng);
+  *fell = false;
+  for (const Transition& t : real) {
+    x = system.step(x, t.u, rng);
+    *fell = *fell || task.absorbing(x);
+  }
   return (x[hx::kBodyPos] - real.front().x[hx::kBodyPos]) /
          (static_cast<double>(real.size()) * dt);
 }
@@ -159,18 +165,22 @@ int main(int argc, char** argv) {
       }
       if (samples == 0) continue;
       std::vector<double> v;
+      int falls = 0;
       for (int i = 0; i < samples; ++i) {
         drops::Rng rng(static_cast<std::uint64_t>(i) + 1);
-        v.push_back(sampled_speed(test, dt, *model, rng));
+        bool fell = false;
+        v.push_back(sampled_speed(test, dt, *fitted.task, *model, rng, &fell));
+        falls += fell ? 1 : 0;
       }
       double mean = 0, sq = 0;
       for (double s : v) mean += s;
       mean /= samples;
       for (double s : v) sq += (s - mean) * (s - mean);
       std::sort(v.begin(), v.end());
-      std::printf("%d sampled model rollouts: mean %.4f sd %.4f q25 %.4f min %.4f (m/s)\n",
+      std::printf("%d sampled model rollouts: mean %.4f sd %.4f q25 %.4f min %.4f (m/s); "
+                  "%d reached the tilt limit\n",
                   samples, mean, std::sqrt(sq / (samples - 1)),
-                  v[static_cast<std::size_t>(samples / 4)], v.front());
+                  v[static_cast<std::size_t>(samples / 4)], v.front(), falls);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hexapod_rollout_error: %s\n", e.what());
