@@ -97,6 +97,24 @@ TEST(Rollout, SamplingChangesReturnsAndMeanPropagationIsDeterministic) {
   EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// The oracle of the statistics' tests: the returns of policy k's o.rollouts rollouts, each run
+// alone through run_episode on the model with its own stream, sorted.
+namespace {
+std::vector<double> sorted_rollout_returns(const Fixture& f, const rollout::RolloutOptions& o,
+                                           std::size_t k) {
+  const rollout::ModelSystem system(*f.model, o);
+  auto p = f.pol->clone();
+  p->set_params(f.thetas[k]);
+  std::vector<double> r;
+  for (int i = 0; i < o.rollouts; ++i) {
+    Rng rng(derive_seed(f.seeds[k], {static_cast<std::uint64_t>(i)}));
+    r.push_back(rollout::run_episode(*f.task, system, *p, rng).total_return());
+  }
+  std::sort(r.begin(), r.end());
+  return r;
+}
+}  // namespace
+
 // The median statistic is the median of the rollouts' own returns (oracle: each rollout run alone
 // through run_episode on the model with its stream), for an odd and an even count, and it is not
 // the mean.
@@ -110,17 +128,9 @@ TEST(Rollout, MedianStatisticIsTheMedianOfTheRolloutsReturns) {
     rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, mean);
     o.statistic = rollout::ReturnStatistic::kMedian;
     rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, median);
-    rollout::ModelSystem system(*f.model, o);
     double largest_gap = 0;
     for (std::size_t k = 0; k < f.thetas.size(); ++k) {
-      auto p = f.pol->clone();
-      p->set_params(f.thetas[k]);
-      std::vector<double> r;
-      for (int i = 0; i < R; ++i) {
-        Rng rng(derive_seed(f.seeds[k], {static_cast<std::uint64_t>(i)}));
-        r.push_back(rollout::run_episode(*f.task, system, *p, rng).total_return());
-      }
-      std::sort(r.begin(), r.end());
+      const std::vector<double> r = sorted_rollout_returns(f, o, k);
       const double expected = R % 2 ? r[R / 2] : 0.5 * (r[R / 2 - 1] + r[R / 2]);
       const auto i = static_cast<Eigen::Index>(k);
       EXPECT_NEAR(median[i], expected, 1e-6) << "R " << R << " policy " << k;
@@ -147,17 +157,9 @@ TEST(Rollout, QuantileStatisticInterpolatesTheSortedRolloutReturns) {
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, half);
   o.quantile = 0.3;
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, low);
-  rollout::ModelSystem system(*f.model, o);
   double largest_gap = 0;
   for (std::size_t k = 0; k < f.thetas.size(); ++k) {
-    auto p = f.pol->clone();
-    p->set_params(f.thetas[k]);
-    std::vector<double> r;
-    for (int i = 0; i < R; ++i) {
-      Rng rng(derive_seed(f.seeds[k], {static_cast<std::uint64_t>(i)}));
-      r.push_back(rollout::run_episode(*f.task, system, *p, rng).total_return());
-    }
-    std::sort(r.begin(), r.end());
+    const std::vector<double> r = sorted_rollout_returns(f, o, k);
     const double h = (R - 1) * 0.3;  // 1.5: halfway between the 2nd and 3rd smallest
     const double expected = r[1] + (h - 1) * (r[2] - r[1]);
     const auto i = static_cast<Eigen::Index>(k);
