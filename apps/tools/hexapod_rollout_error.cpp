@@ -108,9 +108,10 @@ int main(int argc, char** argv) {
   if (argc != 5 && argc != 8 && argc != 10) {
     std::fprintf(stderr,
                  "usage: %s RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR [samples N]]\n"
-                 "  mean rollouts of EPISODE's actions on the prior alone and on a gp_prior\n"
-                 "  model trained on episodes 1..K (REMOVED_LEG: -1 intact, 0..5); samples N:\n"
-                 "  also N sampled model rollouts (mean, sd, 25th percentile of their speeds)\n",
+                 "  mean rollouts of EPISODE's actions (or of each of E1,E2,...) on the prior\n"
+                 "  alone and on a gp_prior model trained on episodes 1..K (REMOVED_LEG: -1\n"
+                 "  intact, 0..5); samples N: also N sampled model rollouts (mean, sd, 25th\n"
+                 "  percentile of their speeds, and how many reached the tilt limit)\n",
                  argv[0]);
     return 2;
   }
