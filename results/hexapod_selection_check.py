@@ -5,9 +5,11 @@
 # (apps/tools/hexapod_rollout_error ... samples 20). Each rule then says whether it would have run
 # the new gait or the incumbent again, scored by the real speeds the two gaits walked.
 #
-# Usage: /usr/bin/python3 results/hexapod_selection_check.py TOOL RUN_DIR [RUN_DIR ...] > out.txt
+# Usage: /usr/bin/python3 results/hexapod_selection_check.py [--tool-args "ARGS"] TOOL RUN_DIR
+#            [RUN_DIR ...] > out.txt
 #        /usr/bin/python3 results/hexapod_selection_check.py --analyze out.txt
-# (TOOL: build/apps/tools/hexapod_rollout_error; walls 3, SNR 500, as the hexapod's defaults.)
+# (TOOL: build/apps/tools/hexapod_rollout_error; walls 3, SNR 500, as the hexapod's defaults;
+# ARGS are appended to the tool's words, e.g. "scale 0.5" for draws of half the predictive sd.)
 import csv, os, re, statistics, subprocess, sys
 
 
@@ -22,12 +24,12 @@ def cases(run):
             best = i
 
 
-def run_tool(tool, runs):
+def run_tool(tool, runs, extra=()):
     for run in runs:
         for e, inc, phi in cases(run):
             print(f"== {run} episode {e} incumbent {inc} phi {phi}", flush=True)
             out = subprocess.run([tool, run, str(e - 1), f"{e},{inc}", str(phi), "walls", "3",
-                                  "500", "samples", "20"], capture_output=True, text=True,
+                                  "500", "samples", "20", *extra], capture_output=True, text=True,
                                  check=True).stdout
             print(out, flush=True)
 
@@ -68,6 +70,8 @@ def analyze(path):
 if __name__ == "__main__":
     if len(sys.argv) == 3 and sys.argv[1] == "--analyze":
         analyze(sys.argv[2])
+    elif len(sys.argv) >= 5 and sys.argv[1] == "--tool-args":
+        run_tool(sys.argv[3], sys.argv[4:], sys.argv[2].split())
     elif len(sys.argv) >= 3:
         run_tool(sys.argv[1], sys.argv[2:])
     else:
