@@ -415,6 +415,37 @@ TEST_F(DeterministicPriorSearch, TheStartIsReturnedUnlessACandidateBeatsItByTheM
   EXPECT_NE(why.find("improvement_margin"), std::string::npos) << why;
 }
 
+// optimizer.improvement_cap in one search (the deterministic model again: the paired improvement
+// is the chosen policy's gain): a cap above the gain changes nothing, one below it returns the
+// start (recorded as kept by the cap, not by the margin); the cap alone turns the check on.
+TEST_F(DeterministicPriorSearch, TheStartIsReturnedWhenACandidateBeatsItByMoreThanTheCap) {
+  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
+  o.selection = algo::PolicySelection::kReevaluate;
+  o.keep_start_point = true;
+  const auto plain = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  ASSERT_NE(plain.selected, "start");
+  const double gain = plain.value - plain.start_value;
+  ASSERT_GT(gain, 0);
+  o.improvement_cap = 1.5 * gain;
+  const auto above = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  EXPECT_EQ(above.theta, plain.theta);
+  EXPECT_FALSE(above.kept_by_cap);
+  EXPECT_NEAR(above.paired_improvement, gain, 1e-9 * std::max(1.0, plain.value));
+  o.improvement_cap = 0.5 * gain;
+  const auto below = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  EXPECT_EQ(below.theta, start);
+  EXPECT_EQ(below.selected, "start");
+  EXPECT_TRUE(below.kept_by_cap);
+  EXPECT_FALSE(below.kept_by_margin);
+  std::string why;
+  o.improvement_margin = 0.5 * gain;  // a cap must lie above the margin
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("improvement_cap"), std::string::npos) << why;
+  o.improvement_margin = 0;
+  o.improvement_cap = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+}
+
 // optimizer.improvement_margin in a run: with a margin no model gain can reach, every episode
 // after the first runs the first episode's policy again; the first (planned on the prior, from a
 // guess) is unaffected, so it equals the run without the margin.
@@ -438,6 +469,29 @@ TEST(BlackDrops, AnUnreachableImprovementMarginRunsTheBestRealPolicyAgain) {
     if (!(plain[k].theta.array() == plain[0].theta.array()).all()) ++moved_without;
   }
   EXPECT_GT(moved_without, 0);  // without the margin the run does move: the test can fail
+}
+
+// optimizer.improvement_cap in a run: with a cap every positive gain exceeds and no margin, every
+// episode after the first runs the first episode's policy again (kept by the cap, by a gain that
+// is not positive, or chosen by the re-evaluation itself), and records why.
+TEST(BlackDrops, ATinyImprovementCapRunsTheBestRealPolicyAgain) {
+  const std::vector<std::string> ov = {"episodes=3", "model.type=gp_prior",
+                                       "optimizer.max_evaluations=100",
+                                       "optimizer.prior_optimizations=1",
+                                       "optimizer.improvement_cap=1e-9"};
+  const auto kept = run(1, ov);
+  ASSERT_EQ(kept.size(), 3u);
+  EXPECT_EQ(kept[0].details.numbers.count("kept_by_cap"), 0u);
+  int by_cap = 0;
+  for (std::size_t k = 1; k < kept.size(); ++k) {
+    EXPECT_EQ(kept[k].theta, kept[0].theta) << "episode " << k + 1;
+    const auto& n = kept[k].details.numbers;
+    ASSERT_EQ(n.count("kept_by_cap"), 1u) << "episode " << k + 1;
+    ASSERT_EQ(n.count("kept_by_margin"), 1u) << "episode " << k + 1;
+    EXPECT_LE(n.at("kept_by_cap") + n.at("kept_by_margin"), 1.0) << "episode " << k + 1;
+    by_cap += static_cast<int>(n.at("kept_by_cap"));
+  }
+  EXPECT_GT(by_cap, 0);  // the cap acted: without it the run moves (the margin test above)
 }
 
 // optimizer.trust_region in a run: the recorded radius of every episode follows TuRBO's rule from

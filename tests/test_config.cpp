@@ -133,6 +133,16 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
                    0.2);
   const std::string im = error_of("", {"optimizer.improvement_margin=-1"});
   EXPECT_NE(im.find("optimizer.improvement_margin"), std::string::npos) << im;
+  // The improvement cap: off by default, set when asked, refused when negative or not above the
+  // margin.
+  EXPECT_EQ(a.improvement_cap, 0.0);
+  EXPECT_DOUBLE_EQ(algo_of(settings("", {"optimizer.improvement_cap=2"})).improvement_cap, 2.0);
+  const std::string ic = error_of("", {"optimizer.improvement_cap=-1"});
+  EXPECT_NE(ic.find("optimizer.improvement_cap"), std::string::npos) << ic;
+  const std::string order =
+      error_of("", {"optimizer.improvement_margin=0.5", "optimizer.improvement_cap=0.2"});
+  EXPECT_NE(order.find("improvement_cap must exceed improvement_margin"), std::string::npos)
+      << order;
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {
@@ -293,6 +303,7 @@ TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
   EXPECT_EQ(legacy.cmaes.restart_start, opt::CmaesRestartStart::kRandom);
   EXPECT_FALSE(legacy.keep_start_point);
   EXPECT_EQ(legacy.improvement_margin, 0.0);
+  EXPECT_EQ(legacy.improvement_cap, 0.0);
   EXPECT_EQ(legacy.episodes, 20);  // the caller's overrides still apply
   const auto user = algo_of(settings(old_run));
   EXPECT_EQ(user.selection, algo::PolicySelection::kReevaluate);

@@ -60,6 +60,10 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
     return fail("trust_region_min must be in (0, 1]");
   if (!(improvement_margin >= 0 && std::isfinite(improvement_margin)))
     return fail("improvement_margin must be finite and >= 0");
+  if (!(improvement_cap >= 0 && std::isfinite(improvement_cap)))
+    return fail("improvement_cap must be finite and >= 0");
+  if (improvement_cap > 0 && !(improvement_cap > improvement_margin))
+    return fail("improvement_cap must exceed improvement_margin (or be 0, off)");
   std::string w;
   if (!cmaes.IsValid(&w)) return fail("cmaes: " + w);
   if (!model.IsValid(&w)) return fail("model: " + w);
@@ -169,9 +173,9 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
       if (means[k] > means[best] || (std::isnan(means[best]) && !std::isnan(means[k]))) best = k;
     if (origin.front() == "start") {
       result.start_value = means[0];
-      if (best != 0 && options.improvement_margin > 0) {
-        // The paired check (BlackDropsOptions::improvement_margin): the start and the chosen
-        // candidate on R fresh streams, one rollout each, stream i shared by both.
+      if (best != 0 && options.paired_check()) {
+        // The paired check (BlackDropsOptions::improvement_margin, improvement_cap): the start
+        // and the chosen candidate on R fresh streams, one rollout each, stream i shared by both.
         const auto R = static_cast<std::size_t>(options.reevaluation_rollouts);
         std::vector<VectorXd> pair(2 * R);
         std::vector<std::uint64_t> pair_streams(2 * R);
@@ -194,6 +198,10 @@ PolicySearchResult optimize_policy(const rollout::Task& task, const model::Dynam
         if (!(result.paired_improvement > options.improvement_margin)) {
           best = 0;
           result.kept_by_margin = true;
+        } else if (options.improvement_cap > 0 &&
+                   result.paired_improvement > options.improvement_cap) {
+          best = 0;
+          result.kept_by_cap = true;
         }
       }
     }
@@ -332,9 +340,12 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       const bool skip_replay = options.skip_known_replays && best_theta.size() &&
                                best_replayed_identically && !best_solved;
       if (skip_replay) rec.details.numbers["replay_skipped"] = 1;
-      // The improvement margin guards a real policy only (episode 1 starts from a guess).
+      // The paired check guards a real policy only (episode 1 starts from a guess).
       BlackDropsOptions search_options = options;
-      if (!best_theta.size()) search_options.improvement_margin = 0;
+      if (!best_theta.size()) {
+        search_options.improvement_margin = 0;
+        search_options.improvement_cap = 0;
+      }
       double chosen_value = -std::numeric_limits<double>::infinity();
       for (int run = 0; run < runs && !interrupted_search; ++run) {
         auto s = optimize_policy(*task, *planning_model, policy, theta0, search_options,
@@ -350,9 +361,11 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
           rec.reevaluated_candidates = s.candidates;
           rec.reevaluated_return = s.candidates > 0 ? s.value
                                                     : std::numeric_limits<double>::quiet_NaN();
-          if (search_options.improvement_margin > 0 && !std::isnan(s.start_value)) {
+          if (search_options.paired_check() && !std::isnan(s.start_value)) {
             rec.details.numbers["start_reevaluated_return"] = s.start_value;
             rec.details.numbers["kept_by_margin"] = s.kept_by_margin ? 1 : 0;
+            if (search_options.improvement_cap > 0)
+              rec.details.numbers["kept_by_cap"] = s.kept_by_cap ? 1 : 0;
             if (!std::isnan(s.paired_improvement))
               rec.details.numbers["paired_improvement"] = s.paired_improvement;
           }

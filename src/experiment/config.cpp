@@ -184,6 +184,10 @@ std::vector<KeySpec> build_base_keys() {
        "over the best real episode's is run only if, on optimizer.reevaluation_rollouts fresh "
        "streams shared by both, the median of its return minus the best one's exceeds this "
        "(0 = off); otherwise the best real policy is run again"});
+  add({"optimizer.improvement_cap", "double", num(d.improvement_cap), 0, 1e6, {}, "return",
+       "the same paired check (on when this or optimizer.improvement_margin is): the best real "
+       "policy is also run again when the median difference exceeds this cap, a gain that large "
+       "meaning the model made the best real policy fail (0 = off; if on, above the margin)"});
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",
@@ -493,6 +497,7 @@ Settings load_run_settings(const Registry& registry, const std::string& yaml_tex
       {"model.gp_mi.candidate_start", "best_so_far"},
       {"optimizer.trust_region", "false"},
       {"optimizer.improvement_margin", "0"},
+      {"optimizer.improvement_cap", "0"},
   };
   std::vector<std::pair<std::string, YAML::Node>> present;
   flatten(parse_yaml(yaml_text, "config"), "",

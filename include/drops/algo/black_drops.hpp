@@ -100,6 +100,15 @@ struct BlackDropsOptions {
   /// Episode 1 (the start is not a real policy) and a start that may not be chosen
   /// (skip_known_replays) are unaffected.
   double improvement_margin = 0;
+  /// A largest believable improvement (return units, >= 0; 0 = off, the default): the same
+  /// paired check as improvement_margin (it runs when either is on), and the start is run again
+  /// also when the median per-stream difference exceeds this cap. A gain that large over a policy
+  /// the real system ran well usually means the model made that policy fail (an absorbing
+  /// penalty on at least half the streams), not that the new one is better (docs/architecture.md,
+  /// "An improvement cap"). Same episodes as improvement_margin.
+  double improvement_cap = 0;
+  /// Whether the paired check of improvement_margin / improvement_cap is on.
+  bool paired_check() const { return improvement_margin > 0 || improvement_cap > 0; }
   /// How the returned policy is chosen among the evaluated ones.
   PolicySelection selection = PolicySelection::kReevaluate;
   /// kReevaluate: Monte-Carlo rollouts per re-evaluated candidate (>= 1), on common random
@@ -168,6 +177,9 @@ struct PolicySearchResult {
   /// The start was returned because the chosen candidate failed the paired check of
   /// BlackDropsOptions::improvement_margin (it would have been returned without the check).
   bool kept_by_margin = false;
+  /// The start was returned because the chosen candidate's paired improvement exceeded
+  /// BlackDropsOptions::improvement_cap.
+  bool kept_by_cap = false;
   /// The paired check's median per-stream return difference, chosen - start (NaN when no check
   /// ran).
   double paired_improvement = std::numeric_limits<double>::quiet_NaN();
