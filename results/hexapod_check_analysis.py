@@ -1,4 +1,4 @@
-# What the paired improvement check (optimizer.improvement_margin) claimed against what the robot
+# What the paired improvement check (optimizer.improvement_margin / _cap) claimed against what the robot
 # did, over the runs of one or more studies (docs/results/hexapod.md, "The paired check without a
 # margin"): for each episode where the check let the new policy run, its paired improvement (the
 # median of the per-stream return differences, summary.json details.paired_improvement) against
@@ -34,7 +34,8 @@ def main():
             best = -np.inf
             for i, e in enumerate(episodes):
                 d = e.get("details") or {}
-                p, k = d.get("paired_improvement"), d.get("kept_by_margin")
+                p = d.get("paired_improvement")
+                k = d.get("kept_by_margin") or d.get("kept_by_cap")
                 speed = e["walking_speed_m_s"]
                 value = speed
                 if k:
@@ -45,7 +46,9 @@ def main():
                         value = best
                 per_episode.setdefault(i + 1, []).append(value)
                 best = max(best, speed)
-        ran = np.array(ran)
+        ran = np.array(ran).reshape(-1, 3)
+        if len(ran) < 2:
+            sys.exit(f"{study}: fewer than 2 episodes ran a new policy after a paired check")
         print(f"{study}: {len(runs)} runs, start kept in {kept} episodes, new policy run in "
               f"{len(ran)} with a paired improvement")
         print(f"  rank correlation, claimed improvement vs real gain: "

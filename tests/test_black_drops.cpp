@@ -43,6 +43,13 @@ class DeterministicPriorSearch : public ::testing::Test {
     rollout::evaluate_policies(*task, *model, pol, {theta}, {7}, o.rollouts, r);
     return r[0];
   }
+  /// The search from a fixed start with the start kept and re-evaluated, before any check.
+  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
+  algo::PolicySearchResult plain_search() {
+    o.selection = algo::PolicySelection::kReevaluate;
+    o.keep_start_point = true;
+    return algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  }
 };
 }  // namespace
 
@@ -357,7 +364,6 @@ TEST(BlackDropsTrustRegion, BoxIsTheCentrePlusMinusTheRadiusInsideTheBounds) {
 // A search in a trust region stays in it: every candidate CMA-ES kept and the returned policy lie
 // within region b of the start; region 1 is the search without a region, to the bit.
 TEST_F(DeterministicPriorSearch, ASearchInATrustRegionStaysInItAndRegionOneChangesNothing) {
-  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
   const double region = 0.1, half = region * o.theta_bound;
   const auto s = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr, true,
                                        region);
@@ -387,10 +393,7 @@ TEST_F(DeterministicPriorSearch, ASearchInATrustRegionStaysInItAndRegionOneChang
 // re-evaluated value is its model return; a margin below the gain changes nothing, one above it
 // returns the start (recorded as kept by the margin).
 TEST_F(DeterministicPriorSearch, TheStartIsReturnedUnlessACandidateBeatsItByTheMargin) {
-  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
-  o.selection = algo::PolicySelection::kReevaluate;
-  o.keep_start_point = true;
-  const auto plain = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  const auto plain = plain_search();
   ASSERT_NE(plain.selected, "start");
   EXPECT_FALSE(plain.kept_by_margin);
   EXPECT_NEAR(plain.start_value, model_return(start), 1e-9 * std::max(1.0, plain.value));
@@ -419,10 +422,7 @@ TEST_F(DeterministicPriorSearch, TheStartIsReturnedUnlessACandidateBeatsItByTheM
 // is the chosen policy's gain): a cap above the gain changes nothing, one below it returns the
 // start (recorded as kept by the cap, not by the margin); the cap alone turns the check on.
 TEST_F(DeterministicPriorSearch, TheStartIsReturnedWhenACandidateBeatsItByMoreThanTheCap) {
-  const VectorXd start = VectorXd::Constant(pol.param_dim(), 0.3 * o.theta_bound);
-  o.selection = algo::PolicySelection::kReevaluate;
-  o.keep_start_point = true;
-  const auto plain = algo::optimize_policy(*task, *model, pol, start, o, 5, nullptr, nullptr);
+  const auto plain = plain_search();
   ASSERT_NE(plain.selected, "start");
   const double gain = plain.value - plain.start_value;
   ASSERT_GT(gain, 0);

@@ -185,8 +185,12 @@ int main(int argc, char** argv) {
           throw drops::InvalidArgument("noise must be step or rollout, not '" + mode + "'");
         noise.per_rollout = mode == "rollout";
       } else if (word == "scale") {
-        noise.scale = std::atof(*value(1));
-        if (!(noise.scale >= 0)) throw drops::InvalidArgument("scale S needs S >= 0");
+        const char* text = *value(1);
+        char* end = nullptr;
+        noise.scale = std::strtod(text, &end);
+        if (end == text || *end != '\0' || !(noise.scale >= 0))
+          throw drops::InvalidArgument("scale S needs a number S >= 0, not '" +
+                                       std::string(text) + "'");
       } else if (word == "trace") {
         trace = true;
       } else {
