@@ -494,6 +494,73 @@ TEST(BlackDrops, ATinyImprovementCapRunsTheBestRealPolicyAgain) {
   EXPECT_GT(by_cap, 0);  // the cap acted: without it the run moves (the margin test above)
 }
 
+// optimizer.improvement_cap_max_runs in a run: the tiny cap above again, but once the real system
+// has run the best policy twice the cap is off, so the run cannot stay locked on the first
+// policy. The recorded run count follows the real episodes (recomputed here).
+TEST(BlackDrops, TheCapStopsRunningAPolicyAgainAfterItsMaxRuns) {
+  const std::vector<std::string> ov = {"episodes=4", "model.type=gp_prior",
+                                       "optimizer.max_evaluations=100",
+                                       "optimizer.prior_optimizations=1",
+                                       "optimizer.improvement_cap=1e-9",
+                                       "optimizer.improvement_cap_max_runs=2"};
+  const auto r = run(1, ov);
+  ASSERT_EQ(r.size(), 4u);
+  EXPECT_EQ(r[0].details.numbers.count("best_policy_runs"), 0u);  // no real policy yet
+  VectorXd best = r[0].theta;
+  double best_return = r[0].real_return;
+  int runs = 1, capped = 0, moved_after = 0;
+  for (std::size_t k = 1; k < r.size(); ++k) {
+    const auto& n = r[k].details.numbers;
+    ASSERT_EQ(n.count("best_policy_runs"), 1u) << "episode " << k + 1;
+    EXPECT_EQ(n.at("best_policy_runs"), runs) << "episode " << k + 1;
+    const bool replay = (r[k].theta.array() == best.array()).all();
+    if (runs >= 2) {
+      EXPECT_EQ(n.count("kept_by_cap"), 0u) << "episode " << k + 1;  // the cap is off
+      if (!replay) ++moved_after;
+    } else if (n.count("kept_by_cap")) {
+      capped += static_cast<int>(n.at("kept_by_cap"));
+    }
+    if (replay) ++runs;
+    if (r[k].real_return > best_return) {
+      if (!replay) runs = 1;
+      best_return = r[k].real_return;
+      best = r[k].theta;
+    }
+  }
+  EXPECT_GT(capped, 0);       // the cap acted while it could
+  EXPECT_GT(moved_after, 0);  // and the run moved on once it could not
+
+  // A run resumed after episode 2 continues with the same count (the checkpoint keeps it).
+  const auto e = fixtures::experiment(ov);
+  const auto o = experiment::black_drops_options(e.settings);
+  algo::BlackDropsState saved;
+  algo::BlackDropsCallbacks cb;
+  cb.on_state = [&](const algo::BlackDropsState& st) {
+    if (st.episodes_done == 2) saved = st;
+  };
+  ThreadLimit limit(1);
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb);
+  ASSERT_EQ(saved.episodes_done, 2);
+  ASSERT_EQ(saved.extra.count("best_policy_runs"), 1u);
+  std::vector<algo::EpisodeRecord> resumed;
+  cb = {};
+  cb.on_episode = [&](const algo::EpisodeRecord& rec) { resumed.push_back(rec); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, o, cb, &saved);
+  ASSERT_EQ(resumed.size(), 2u);
+  for (std::size_t k = 0; k < resumed.size(); ++k) {
+    EXPECT_EQ(resumed[k].theta, r[k + 2].theta) << "episode " << k + 3;
+    EXPECT_EQ(resumed[k].details.numbers.at("best_policy_runs"),
+              r[k + 2].details.numbers.at("best_policy_runs"));
+  }
+  // A count below 1 in a checkpoint is an error, not a silent reset.
+  saved.extra["best_policy_runs"] = VectorXd::Constant(1, 0.0);
+  EXPECT_THROW(algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                                     e.setup.prior_parameters, o, cb, &saved),
+               InvalidArgument);
+}
+
 // optimizer.trust_region in a run: the recorded radius of every episode follows TuRBO's rule from
 // the episodes before it (recomputed here from their real returns), every policy run lies within
 // its radius of the best real policy before it, and a run resumed from a checkpoint continues

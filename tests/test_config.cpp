@@ -143,6 +143,12 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
       error_of("", {"optimizer.improvement_margin=0.5", "optimizer.improvement_cap=0.2"});
   EXPECT_NE(order.find("improvement_cap must exceed improvement_margin"), std::string::npos)
       << order;
+  // Its run limit: none by default, set when asked, a negative one refused.
+  EXPECT_EQ(a.improvement_cap_max_runs, 0);
+  EXPECT_EQ(algo_of(settings("", {"optimizer.improvement_cap_max_runs=2"})).improvement_cap_max_runs,
+            2);
+  const std::string mr = error_of("", {"optimizer.improvement_cap_max_runs=-1"});
+  EXPECT_NE(mr.find("optimizer.improvement_cap_max_runs"), std::string::npos) << mr;
 }
 
 TEST(Config, YamlAndOverridesApplyInOrder) {
@@ -304,6 +310,7 @@ TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
   EXPECT_FALSE(legacy.keep_start_point);
   EXPECT_EQ(legacy.improvement_margin, 0.0);
   EXPECT_EQ(legacy.improvement_cap, 0.0);
+  EXPECT_EQ(legacy.improvement_cap_max_runs, 0);
   EXPECT_EQ(legacy.episodes, 20);  // the caller's overrides still apply
   const auto user = algo_of(settings(old_run));
   EXPECT_EQ(user.selection, algo::PolicySelection::kReevaluate);

@@ -24,6 +24,8 @@ enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPol
 constexpr const char* kBestPolicyKey = "best_policy_replays";
 // The trust region's radius after the last episode (BlackDropsOptions::trust_region).
 constexpr const char* kTrustRegionKey = "trust_region_radius";
+// The real runs of the best policy (BlackDropsOptions::improvement_cap_max_runs).
+constexpr const char* kBestRunsKey = "best_policy_runs";
 
 }  // namespace
 
@@ -64,6 +66,7 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
     return fail("improvement_cap must be finite and >= 0");
   if (improvement_cap > 0 && !(improvement_cap > improvement_margin))
     return fail("improvement_cap must exceed improvement_margin (or be 0, off)");
+  if (improvement_cap_max_runs < 0) return fail("improvement_cap_max_runs must be >= 0");
   std::string w;
   if (!cmaes.IsValid(&w)) return fail("cmaes: " + w);
   if (!model.IsValid(&w)) return fail("model: " + w);
@@ -241,6 +244,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   // The best policy's replays (options.skip_known_replays): whether a run of it again gave the
   // same return, and whether its best episode solved the task.
   bool best_replayed_identically = false, best_solved = false;
+  int best_runs = 0;  // real runs of best_theta
   double region = 1.0;  // the trust region's radius, a fraction of theta_bound
   int first_episode = 1;
   if (resume) {
@@ -264,6 +268,15 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         throw InvalidArgument(std::string("resume: extra.") + kBestPolicyKey + " must hold 2 values");
       best_replayed_identically = it->second[0] != 0;
       best_solved = it->second[1] != 0;
+    }
+    // A checkpoint from before improvement_cap_max_runs: the best policy was run once.
+    best_runs = 1;
+    const auto br = resume->extra.find(kBestRunsKey);
+    if (br != resume->extra.end()) {
+      if (br->second.size() != 1 || !(br->second[0] >= 1))
+        throw InvalidArgument(std::string("resume: extra.") + kBestRunsKey +
+                              " must hold 1 value >= 1");
+      best_runs = static_cast<int>(br->second[0]);
     }
     // A checkpoint without a radius (no trust region, or from before it existed): the whole box.
     const auto tr = resume->extra.find(kTrustRegionKey);
@@ -346,6 +359,11 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
         search_options.improvement_margin = 0;
         search_options.improvement_cap = 0;
       }
+      // The cap may not run the best real policy again once it has been run this often.
+      if (search_options.improvement_cap > 0 && options.improvement_cap_max_runs > 0) {
+        rec.details.numbers["best_policy_runs"] = best_runs;
+        if (best_runs >= options.improvement_cap_max_runs) search_options.improvement_cap = 0;
+      }
       double chosen_value = -std::numeric_limits<double>::infinity();
       for (int run = 0; run < runs && !interrupted_search; ++run) {
         auto s = optimize_policy(*task, *planning_model, policy, theta0, search_options,
@@ -417,7 +435,9 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     if (options.trust_region && best_theta.size() && !replay && !rec.random_policy)
       region = rec.real_return > best_return ? std::min(1.0, 2 * region)
                                              : std::max(options.trust_region_min, region / 2);
+    if (replay) ++best_runs;
     if (rec.real_return > best_return) {
+      if (!replay) best_runs = 1;
       best_return = rec.real_return;
       best_theta = rec.theta;
       best_solved = rec.solved;
@@ -436,6 +456,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       st.model = model->state();
       st.extra[kBestPolicyKey] = Eigen::Vector2d(best_replayed_identically ? 1 : 0,
                                                  best_solved ? 1 : 0);
+      st.extra[kBestRunsKey] = VectorXd::Constant(1, best_runs);
       if (options.trust_region) st.extra[kTrustRegionKey] = VectorXd::Constant(1, region);
       callbacks.on_state(st);
     }

@@ -188,6 +188,11 @@ std::vector<KeySpec> build_base_keys() {
        "the same paired check (on when this or optimizer.improvement_margin is): the best real "
        "policy is also run again when the median difference exceeds this cap, a gain that large "
        "meaning the model made the best real policy fail (0 = off; if on, above the margin)"});
+  add({"optimizer.improvement_cap_max_runs", "int", std::to_string(d.improvement_cap_max_runs), 0,
+       1000, {}, "-",
+       "optimizer.improvement_cap is off in an episode once the real system has run the best real "
+       "policy this many times, so that the cap cannot lock a run on one policy (0 = no limit; 2 "
+       "= the cap may run a policy once more)"});
   add({"optimizer.selection", "enum",
        d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",
@@ -498,6 +503,7 @@ Settings load_run_settings(const Registry& registry, const std::string& yaml_tex
       {"optimizer.trust_region", "false"},
       {"optimizer.improvement_margin", "0"},
       {"optimizer.improvement_cap", "0"},
+      {"optimizer.improvement_cap_max_runs", "0"},
   };
   std::vector<std::pair<std::string, YAML::Node>> present;
   flatten(parse_yaml(yaml_text, "config"), "",

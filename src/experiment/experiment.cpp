@@ -66,6 +66,7 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   a.trust_region_min = get_double(st, "optimizer.trust_region_min");
   a.improvement_margin = get_double(st, "optimizer.improvement_margin");
   a.improvement_cap = get_double(st, "optimizer.improvement_cap");
+  a.improvement_cap_max_runs = static_cast<int>(get_int(st, "optimizer.improvement_cap_max_runs"));
   a.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
                                                             : algo::PolicySelection::kReevaluate;
   a.reevaluation_rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));

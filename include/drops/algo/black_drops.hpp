@@ -107,6 +107,12 @@ struct BlackDropsOptions {
   /// penalty on at least half the streams), not that the new one is better (docs/architecture.md,
   /// "An improvement cap"). Same episodes as improvement_margin.
   double improvement_cap = 0;
+  /// A limit on the cap's re-runs (>= 0; 0 = none, the default): improvement_cap is off in an
+  /// episode when the real system has already run the best real policy this many times, so that
+  /// the cap cannot lock a run on one policy that the model keeps making fail (2: the cap may run
+  /// a policy once more, then the model, which has now seen it twice, is believed;
+  /// docs/architecture.md, "An improvement cap").
+  int improvement_cap_max_runs = 0;
   /// Whether the paired check of improvement_margin / improvement_cap is on.
   bool paired_check() const { return improvement_margin > 0 || improvement_cap > 0; }
   /// How the returned policy is chosen among the evaluated ones.
