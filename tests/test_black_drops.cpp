@@ -22,6 +22,35 @@ std::vector<algo::EpisodeRecord> run(int threads, const std::vector<std::string>
   return records;
 }
 
+// The checkpoint state after episode `done` of a one-thread run with these overrides (its
+// episodes_done is 0 if the run never got there).
+algo::BlackDropsState state_after(const std::vector<std::string>& overrides, int done) {
+  ThreadLimit limit(1);
+  const auto e = fixtures::experiment(overrides);
+  algo::BlackDropsState saved;
+  algo::BlackDropsCallbacks cb;
+  cb.on_state = [&](const algo::BlackDropsState& st) {
+    if (st.episodes_done == done) saved = st;
+  };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+  return saved;
+}
+
+// The episodes of a one-thread run with these overrides resumed from `saved`.
+std::vector<algo::EpisodeRecord> resumed_from(const std::vector<std::string>& overrides,
+                                              const algo::BlackDropsState& saved) {
+  ThreadLimit limit(1);
+  const auto e = fixtures::experiment(overrides);
+  std::vector<algo::EpisodeRecord> records;
+  algo::BlackDropsCallbacks cb;
+  cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb,
+                        &saved);
+  return records;
+}
+
 // A deterministic objective for optimize_policy: the pendubot's prior alone with mean propagation
 // (one rollout is the exact model return), a 200-evaluation budget and no restarts.
 class DeterministicPriorSearch : public ::testing::Test {
@@ -209,22 +238,9 @@ TEST(BlackDrops, AnUnsolvedPolicyReplayedWithTheSameReturnIsNotRunAThirdTime) {
   // A run resumed right after the replay knows it (the checkpoint's record) and does the same.
   auto ov = base;
   ov.push_back("optimizer.skip_known_replays=true");
-  const auto e = fixtures::experiment(ov);
-  const auto o = experiment::black_drops_options(e.settings);
-  algo::BlackDropsState saved;
-  algo::BlackDropsCallbacks cb;
-  cb.on_state = [&](const algo::BlackDropsState& st) {
-    if (st.episodes_done == static_cast<int>(replay) + 1) saved = st;
-  };
-  ThreadLimit limit(1);
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, o, cb);
+  const auto saved = state_after(ov, static_cast<int>(replay) + 1);
   ASSERT_EQ(saved.episodes_done, static_cast<int>(replay) + 1);
-  std::vector<algo::EpisodeRecord> resumed;
-  cb = {};
-  cb.on_episode = [&](const algo::EpisodeRecord& r) { resumed.push_back(r); };
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, o, cb, &saved);
+  const auto resumed = resumed_from(ov, saved);
   ASSERT_FALSE(resumed.empty());
   EXPECT_EQ(resumed[0].episode, static_cast<int>(next) + 1);
   EXPECT_EQ(resumed[0].theta, on[next].theta);
@@ -531,23 +547,10 @@ TEST(BlackDrops, TheCapStopsRunningAPolicyAgainAfterItsMaxRuns) {
   EXPECT_GT(moved_after, 0);  // and the run moved on once it could not
 
   // A run resumed after episode 2 continues with the same count (the checkpoint keeps it).
-  const auto e = fixtures::experiment(ov);
-  const auto o = experiment::black_drops_options(e.settings);
-  algo::BlackDropsState saved;
-  algo::BlackDropsCallbacks cb;
-  cb.on_state = [&](const algo::BlackDropsState& st) {
-    if (st.episodes_done == 2) saved = st;
-  };
-  ThreadLimit limit(1);
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, o, cb);
+  auto saved = state_after(ov, 2);
   ASSERT_EQ(saved.episodes_done, 2);
   ASSERT_EQ(saved.extra.count("best_policy_runs"), 1u);
-  std::vector<algo::EpisodeRecord> resumed;
-  cb = {};
-  cb.on_episode = [&](const algo::EpisodeRecord& rec) { resumed.push_back(rec); };
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, o, cb, &saved);
+  const auto resumed = resumed_from(ov, saved);
   ASSERT_EQ(resumed.size(), 2u);
   for (std::size_t k = 0; k < resumed.size(); ++k) {
     EXPECT_EQ(resumed[k].theta, r[k + 2].theta) << "episode " << k + 3;
@@ -556,9 +559,7 @@ TEST(BlackDrops, TheCapStopsRunningAPolicyAgainAfterItsMaxRuns) {
   }
   // A count below 1 in a checkpoint is an error, not a silent reset.
   saved.extra["best_policy_runs"] = VectorXd::Constant(1, 0.0);
-  EXPECT_THROW(algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                                     e.setup.prior_parameters, o, cb, &saved),
-               InvalidArgument);
+  EXPECT_THROW(resumed_from(ov, saved), InvalidArgument);
 }
 
 // optimizer.trust_region in a run: the recorded radius of every episode follows TuRBO's rule from
@@ -600,22 +601,10 @@ TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
   }
   EXPECT_GT(shrinks, 0) << "no episode failed: the setting no longer exercises the rule";
 
-  const auto e = fixtures::experiment(ov);
-  algo::BlackDropsState saved;
-  algo::BlackDropsCallbacks cb;
-  cb.on_state = [&](const algo::BlackDropsState& st) {
-    if (st.episodes_done == 4) saved = st;
-  };
-  ThreadLimit limit(1);
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, o, cb);
+  auto saved = state_after(ov, 4);
   ASSERT_EQ(saved.episodes_done, 4);
   ASSERT_EQ(saved.extra.count("trust_region_radius"), 1u);
-  std::vector<algo::EpisodeRecord> resumed;
-  cb = {};
-  cb.on_episode = [&](const algo::EpisodeRecord& rec) { resumed.push_back(rec); };
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, o, cb, &saved);
+  const auto resumed = resumed_from(ov, saved);
   ASSERT_EQ(resumed.size(), 3u);
   for (std::size_t k = 0; k < resumed.size(); ++k) {
     EXPECT_EQ(resumed[k].theta, r[k + 4].theta) << "episode " << k + 5;
@@ -624,7 +613,5 @@ TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
   }
   // A radius outside (0, 1] in a checkpoint is an error, not a silent reset.
   saved.extra["trust_region_radius"] = VectorXd::Constant(1, 2.0);
-  EXPECT_THROW(algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                                     e.setup.prior_parameters, o, cb, &saved),
-               InvalidArgument);
+  EXPECT_THROW(resumed_from(ov, saved), InvalidArgument);
 }
