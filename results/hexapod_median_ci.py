@@ -9,23 +9,31 @@
 # one episode.
 # Usage: /usr/bin/python3 results/hexapod_median_ci.py STUDY_DIR [BASELINE_DIR] [--target V]
 #        [--window A-B]
-#        (a campaign directory holding runs/seed*/episodes.csv)
+#        (a campaign directory holding runs/seed*/episodes.csv, or several joined by commas:
+#        campaigns/hexapod-walls,campaigns/hexapod-walls-seeds)
 import csv, glob, os, random, re, statistics, sys
 
 RESAMPLES = 20000
 
 
-def speeds(study):
-    """{seed: {episode: walking speed}} of the study's runs."""
+def speeds(studies):
+    """{seed: {episode: walking speed}} of the runs of one study or of several, comma-separated
+    (e.g. a study and its extra seeds); a seed in two of them is an error."""
     runs = {}
-    for f in glob.glob(os.path.join(study, "runs", "*", "episodes.csv")):
-        m = re.search(r"seed(\d+)$", os.path.dirname(f))
-        if not m:
-            continue
-        runs[int(m.group(1))] = {int(r["episode"]): float(r["walking_speed_m_s"])
-                                 for r in csv.DictReader(open(f))}
-    if not runs:
-        sys.exit(f"{study}: no runs/seed*/episodes.csv")
+    for study in studies.split(","):
+        found = 0
+        for f in glob.glob(os.path.join(study, "runs", "*", "episodes.csv")):
+            m = re.search(r"seed(\d+)$", os.path.dirname(f))
+            if not m:
+                continue
+            seed = int(m.group(1))
+            if seed in runs:
+                sys.exit(f"{study}: seed {seed} is also in another directory of {studies}")
+            runs[seed] = {int(r["episode"]): float(r["walking_speed_m_s"])
+                          for r in csv.DictReader(open(f))}
+            found += 1
+        if not found:
+            sys.exit(f"{study}: no runs/seed*/episodes.csv")
     return runs
 
 
