@@ -48,6 +48,8 @@ for run in args:
     if not os.path.exists(path):
         continue
     eps = list(csv.DictReader(open(path)))
+    if not eps:  # a run stopped in its first episode
+        continue
     cells, falls_late, speeds = [], 0, []
     for e in eps:
         k = int(e["episode"])
