@@ -1,0 +1,200 @@
+#!/usr/bin/python3
+"""Draw every figure of docs/results from the compact summaries of results/summaries/.
+
+  /usr/bin/python3 results/draw_figures.py [--output DIR]
+
+writes to docs/results/ (or DIR):
+
+  pendubot-returns.png              results/summaries/pendubot.csv: the real return per episode of
+                                    the 7 algorithms, one panel per starting prior (A-D)
+  hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
+                                    walking speed per episode of gp_mi, gp_prior and IT&E (seeds
+                                    1-5), intact and without the rear-right leg, with the ceilings
+                                    that direct search on the robot found
+  hexapod-walls-20-seeds-speed.png  results/summaries/hexapod.csv: gp_mi on the intact robot, the
+                                    hexapod's defaults, seeds 1-20, 1-10 and 11-20
+
+Each figure is the form of `drops report`: per variant, the median over the runs (line) and the
+25-75 % band (shaded) against the interaction time, the quartiles interpolated linearly as drops
+does. Needs matplotlib (Debian's python3-matplotlib; scripts/install-deps).
+"""
+
+import argparse
+import csv
+import os
+import sys
+
+try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ImportError as exc:
+    print(f"draw_figures.py: {exc}; run it with Debian's /usr/bin/python3 "
+          "(python3-matplotlib)", file=sys.stderr)
+    sys.exit(3)
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SUMMARIES = os.path.join(HERE, "summaries")
+DEFAULT_OUTPUT = os.path.join(os.path.dirname(HERE), "docs", "results")
+
+# Variants in the order and colours of drops report, with its labels.
+VARIANTS = [
+    ("gp_mi", "Black-DROPS with GP-MI", "#1f77b4"),
+    ("gp_prior", "Black-DROPS with priors", "#d62728"),
+    ("mi", "Black-DROPS with MI", "#2ca02c"),
+    ("gp", "Black-DROPS", "#7f7f7f"),
+    ("ite", "IT&E", "#9467bd"),
+    ("pilco", "PILCO", "#ff7f0e"),
+    ("pilco_prior", "PILCO with priors", "#17becf"),
+]
+LABEL = {v: l for v, l, _ in VARIANTS}
+COLOR = {v: c for v, _, c in VARIANTS}
+PENDUBOT_PANELS = [("tunable-useful", "A tunable & useful"), ("tunable", "B tunable"),
+                   ("tunable-misleading", "C tunable & misleading"),
+                   ("partially-tunable", "D partially tunable")]
+# Variants that ignore the prior: drawn once, in the first panel.
+IGNORE_PRIOR = {"gp", "pilco"}
+HEXAPOD_PANELS = [("intact", "real robot: intact"),
+                  ("leg5", "real robot: rear-right leg (leg5) removed")]
+
+plt.rcParams.update({
+    "font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "legend.fontsize": 10,
+    "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 100,
+})
+
+
+def read(name):
+    with open(os.path.join(SUMMARIES, name), newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def quantile(values, p):
+    """As drops report: linear interpolation between the sorted values."""
+    v = sorted(values)
+    h = (len(v) - 1) * p
+    lo = int(h)
+    hi = min(lo + 1, len(v) - 1)
+    return v[lo] + (h - lo) * (v[hi] - v[lo])
+
+
+def curve(rows, value):
+    """Per episode: (interaction time, median, q25, q75, runs) of value over the rows' runs."""
+    by_episode = {}
+    for r in rows:
+        if r[value] != "":
+            by_episode.setdefault(int(r["episode"]), []).append(
+                (float(r["interaction_time_s"]), float(r[value])))
+    out = []
+    for k in sorted(by_episode):
+        times = [t for t, _ in by_episode[k]]
+        values = [v for _, v in by_episode[k]]
+        out.append((quantile(times, 0.5), quantile(values, 0.5), quantile(values, 0.25),
+                    quantile(values, 0.75), len(values)))
+    return out
+
+
+def draw_curve(ax, points, color, label, z):
+    t = [p[0] for p in points]
+    ax.fill_between(t, [p[2] for p in points], [p[3] for p in points], color=color, alpha=0.15,
+                    linewidth=0, zorder=z)
+    ax.plot(t, [p[1] for p in points], "-o", color=color, linewidth=2, markersize=4,
+            label=label, zorder=z + 1)
+
+
+def finish(fig, axes, title, path, ncol):
+    handles, labels = [], []
+    for ax in axes:
+        for h, l in zip(*ax.get_legend_handles_labels()):
+            if l not in labels:
+                handles.append(h)
+                labels.append(l)
+    rows = (len(labels) + ncol - 1) // ncol
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, frameon=False,
+               bbox_to_anchor=(0.5, 0.0))
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout(rect=(0, (0.3 * rows + 0.15) / fig.get_figheight(), 1, 1))
+    fig.savefig(path, bbox_inches="tight")
+    plt.close(fig)
+    print(f"{path}: {os.path.getsize(path) // 1024} KB")
+
+
+def pendubot_returns(output):
+    rows = read("pendubot.csv")
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.2), sharey=True)
+    axes = axes.ravel()
+    for i, (prior, title) in enumerate(PENDUBOT_PANELS):
+        ax = axes[i]
+        for j, (v, label, color) in enumerate(VARIANTS):
+            if v in IGNORE_PRIOR and i > 0:
+                continue
+            sel = [r for r in rows if r["variant"] == v and (v in IGNORE_PRIOR or r["prior"] == prior)]
+            if sel:
+                draw_curve(ax, curve(sel, "real_return"), color, label, 2 * (len(VARIANTS) - j))
+        ax.set_title(title, loc="left")
+        ax.set_xlabel("interaction time (s)")
+        ax.set_xlim(left=0)
+        if i % 2 == 0:
+            ax.set_ylabel("return")
+    finish(fig, axes, "Pendubot: return on the real system per episode; line = median over "
+           "5 runs, band = 25–75 %\n(Black-DROPS and PILCO ignore the prior: panel A only)",
+           os.path.join(output, "pendubot-returns.png"), 4)
+
+
+def hexapod_speed(output):
+    rows = [r for r in read("hexapod.csv") if int(r["seed"]) <= 5]
+    ceilings = read("hexapod-ceiling.csv")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for i, (damage, title) in enumerate(HEXAPOD_PANELS):
+        ax = axes[i]
+        for j, v in enumerate(["gp_mi", "gp_prior", "ite"]):
+            sel = [r for r in rows if r["variant"] == v and r["damage"] == damage]
+            draw_curve(ax, curve(sel, "speed_m_s"), COLOR[v], LABEL[v], 2 * (3 - j))
+        best = max(float(c["best_speed_m_s"]) for c in ceilings if c["damage"] == damage)
+        ax.axhline(best, color="black", linestyle="--", linewidth=1.2,
+                   label="ceiling: best gait of direct search on the robot")
+        ax.annotate(f"{best:.3f} m/s", (0, best), xycoords=("axes fraction", "data"),
+                    xytext=(4, 4), textcoords="offset points", ha="left", fontsize=9)
+        ax.set_title(title, loc="left")
+        ax.set_xlabel("interaction time (s)")
+        ax.set_xlim(left=0)
+        if i == 0:
+            ax.set_ylabel("walking speed (m/s)")
+        ax.set_ylim(-0.12, 0.40)
+    finish(fig, axes, "Hexapod: walking speed on the \"real\" robot per episode; line = median "
+           "over 5 runs (seeds 1–5), band = 25–75 %",
+           os.path.join(output, "hexapod-speed.png"), 4)
+
+
+def hexapod_20_seeds(output):
+    rows = [r for r in read("hexapod.csv") if r["variant"] == "gp_mi" and r["damage"] == "intact"]
+    seeds = sorted({int(r["seed"]) for r in rows})
+    assert seeds == list(range(1, 21)), seeds
+    fig, ax = plt.subplots(figsize=(7.5, 4))
+    sets = [("seeds 1–20", 1, 20, "#1f77b4"), ("seeds 1–10", 1, 10, "#d62728"),
+            ("seeds 11–20", 11, 20, "#2ca02c")]
+    for j, (label, lo, hi, color) in enumerate(sets):
+        sel = [r for r in rows if lo <= int(r["seed"]) <= hi]
+        draw_curve(ax, curve(sel, "speed_m_s"), color, label, 2 * (3 - j))
+    ax.set_title("real robot: intact", loc="left")
+    ax.set_xlabel("interaction time (s)")
+    ax.set_ylabel("walking speed (m/s)")
+    ax.set_xlim(left=0)
+    finish(fig, [ax], "Hexapod, Black-DROPS with GP-MI (the defaults): walking speed per "
+           "episode;\nline = median over the runs, band = 25–75 %",
+           os.path.join(output, "hexapod-walls-20-seeds-speed.png"), 3)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--output", default=DEFAULT_OUTPUT, help="folder of the figures")
+    args = parser.parse_args()
+    os.makedirs(args.output, exist_ok=True)
+    pendubot_returns(args.output)
+    hexapod_speed(args.output)
+    hexapod_20_seeds(args.output)
+
+
+if __name__ == "__main__":
+    main()
