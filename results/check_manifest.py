@@ -9,6 +9,10 @@ Checks (exit 1 with one line per failure, 0 when all hold):
     the path results/NAME.tar.xz, a status canonical, superseded or study;
   - every campaign row: its summary file exists, its size and sha256 are the manifest's, a
     config and source are given, the commits are 40-hex (code_commit may be empty);
+  - config names files of today's tree (checked when RESULTS_DIR sits in a checkout that has
+    configs/): every campaign and canonical archive has one, superseded and study archives none;
+    original_config is COMMIT:configs/NAME.yaml (the files the runs were made with, for
+    `git show`), given for every campaign (an archive made by commands alone has none);
   - every summary file: exactly the documented columns; each of its campaigns is in the manifest
     and each campaign row of the manifest has rows in it; no duplicate (campaign, run, episode)
     (for the ceilings: (campaign, search)); the episodes of each run are 1, 2, ..., n; the
@@ -16,7 +20,8 @@ Checks (exit 1 with one line per failure, 0 when all hold):
   - results/ holds no *.tar.xz the manifest does not list with that size and sha256, and no
     other file over 1 MB;
   - inside a git clone that has the commits: each archive's git object is the blob at
-    tree_commit:file (skipped, and said so, without git or without those commits).
+    tree_commit:file, and each original_config exists (skipped, and said so, without git or
+    without those commits).
 Standard library only, so any python3 runs it.
 """
 
@@ -28,7 +33,7 @@ import re
 import subprocess
 import sys
 
-MANIFEST_COLUMNS = ["kind", "name", "task", "status", "config", "command", "code_commit",
+MANIFEST_COLUMNS = ["kind", "name", "task", "status", "config", "original_config", "command", "code_commit",
                     "added_in", "tree_commit", "file", "bytes", "sha256", "git_object", "source",
                     "description"]
 COMMON = ["campaign", "run", "task", "algorithm", "variant", "prior", "damage", "seed", "episode",
@@ -52,6 +57,7 @@ REQUIRED = {"campaign", "run", "search", "task", "algorithm", "variant", "seed",
             "best_theta"}
 HEX64 = re.compile(r"^[0-9a-f]{64}$")
 HEX40 = re.compile(r"^[0-9a-f]{40}$")
+ORIGINAL_CONFIG = re.compile(r"^[0-9a-f]{7,40}:configs/[A-Za-z0-9_.-]+\.ya?ml$")
 MAX_SUMMARY_BYTES = 300 * 1024
 MAX_FILE_BYTES = 1024 * 1024
 
@@ -74,6 +80,35 @@ def read_csv(path):
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
         return reader.fieldnames or [], list(reader)
+
+
+def check_configs(results, rows):
+    """config: files of today's tree; original_config: COMMIT:configs/NAME.yaml."""
+    root = os.path.dirname(os.path.abspath(results))
+    in_checkout = os.path.isdir(os.path.join(root, "configs"))
+    if not in_checkout:
+        print("check_manifest.py: config files not checked (no configs/ beside results/)")
+    for i, r in enumerate(rows, start=2):
+        where = f"manifest.csv line {i} ({r['kind']} {r['name']})"
+        if r["kind"] == "directory":
+            continue
+        wants_config = r["kind"] == "campaign" or r["status"] == "canonical"
+        if wants_config and not r["config"]:
+            fail(f"{where}: no config of today's tree")
+        if not wants_config and r["config"]:
+            fail(f"{where}: a {r['status']} archive names a config of today's tree "
+                 f"({r['config']}); its configs are original_config")
+        for path in r["config"].split():
+            if not path.startswith("configs/"):
+                fail(f"{where}: config {path!r} is not configs/NAME")
+            elif in_checkout and not os.path.isfile(os.path.join(root, path)):
+                fail(f"{where}: config {path} is not in the tree (a file that left it goes "
+                     "in original_config as COMMIT:PATH)")
+        if r["kind"] == "campaign" and not r["original_config"]:
+            fail(f"{where}: no original_config")
+        for spec in r["original_config"].split():
+            if not ORIGINAL_CONFIG.match(spec):
+                fail(f"{where}: original_config {spec!r} is not COMMIT:configs/NAME.yaml")
 
 
 def check_manifest(results, rows):
@@ -225,6 +260,11 @@ def check_git(results, rows):
         if found != r["git_object"]:
             fail(f"manifest {r['kind']} {r['name']}: {r['tree_commit'][:12]}:{r['file']} is "
                  f"{found}, the manifest says {r['git_object']}")
+    for r in rows:
+        for spec in r["original_config"].split():
+            if ORIGINAL_CONFIG.match(spec) and rev_parse(spec) is None:
+                fail(f"manifest {r['kind']} {r['name']}: original_config {spec} is not in "
+                     "this clone's history")
 
 
 def main():
@@ -234,6 +274,7 @@ def main():
         print(f"check_manifest.py: manifest.csv columns {columns}, documented {MANIFEST_COLUMNS}")
         sys.exit(1)
     check_manifest(results, rows)
+    check_configs(results, rows)
     for relative in SUMMARY_COLUMNS:
         if os.path.isfile(os.path.join(results, relative)):
             check_summary(results, relative, rows)

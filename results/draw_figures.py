@@ -8,11 +8,13 @@ writes to docs/results/ (or DIR):
   pendubot-returns.png              results/summaries/pendubot.csv: the real return per episode of
                                     the 7 algorithms, one panel per starting prior (A-D)
   hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
-                                    walking speed per episode of gp_mi, gp_prior and IT&E (seeds
-                                    1-5), intact and without the rear-right leg, with the ceilings
-                                    that direct search on the robot found
-  hexapod-walls-20-seeds-speed.png  results/summaries/hexapod.csv: gp_mi on the intact robot, the
-                                    hexapod's defaults, seeds 1-20, 1-10 and 11-20
+                                    walking speed per episode of gp_mi, gp_prior (the runs of
+                                    configs/campaign-hexapod.yaml) and IT&E, seeds 1-5, intact and
+                                    without the rear-right leg, with the ceilings that direct
+                                    search on the robot found
+  hexapod-intact-20-seeds-speed.png results/summaries/hexapod.csv: gp_mi on the intact robot, the
+                                    hexapod's defaults, seeds 1-20, 1-10 and 11-20 (the runs of
+                                    configs/campaign-hexapod-intact.yaml)
 
 Each figure is the form of `drops report`: per variant, the median over the runs (line) and the
 25-75 % band (shaded) against the interaction time, the quartiles interpolated linearly as drops
@@ -182,7 +184,7 @@ def hexapod_20_seeds(output):
     ax.set_xlim(left=0)
     finish(fig, [ax], "Hexapod, Black-DROPS with GP-MI (the defaults): walking speed per "
            "episode;\nline = median over the runs, band = 25–75 %",
-           os.path.join(output, "hexapod-walls-20-seeds-speed.png"), 3)
+           os.path.join(output, "hexapod-intact-20-seeds-speed.png"), 3)
 
 
 def main():

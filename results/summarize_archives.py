@@ -17,7 +17,14 @@ ARCHIVES_DIR holds these archives unpacked side by side (results/fetch-archive g
   hexapod-walls-seeds.tar.xz    hexapod-walls-seeds/
   hexapod-ite.tar.xz            hexapod-ite/
   hexapod-ceiling.tar.xz        hexapod-ceiling/
-  results/hexapod-direct/       hexapod-direct/   (a folder of the tree, not an archive)
+  results/hexapod-direct/       hexapod-direct/   (a folder of commit cfe60a1, not an archive)
+
+The campaign directories keep the names they were made under, and the summaries' `campaign`
+column is that name. Today's configs make the hexapod's runs under other names: the runs of
+hexapod-walls-leg5 (gp_mi, leg 5) and hexapod-walls-campaign (gp_prior) are runs of
+configs/campaign-hexapod.yaml (campaign `hexapod`), those of hexapod-walls and hexapod-walls-seeds
+(gp_mi, intact, seeds 1-10 and 11-20) of configs/campaign-hexapod-intact.yaml (campaign
+`hexapod-intact`); results/manifest.csv has the mapping (columns config and original_config).
 
 OUTPUT_DIR defaults to the summaries/ folder beside this script. Standard library only.
 """
@@ -130,9 +137,9 @@ def read_theta(path):
 
 
 # The ceiling searches: (campaign, folder in ARCHIVES_DIR, search, damage, start, command).
-# The commands are those the searches ran with (results/hexapod-direct/commands.sh of the tree
-# that held it), run from the repository root; START.csv is the row's start_theta written one
-# value per line.
+# The commands are those the searches ran with (results/hexapod-direct/commands.sh at commit
+# cfe60a1), run from the repository root; START.csv is the row's start_theta written one value
+# per line.
 C = "drops direct configs/hexapod-gp_mi.yaml"
 CEILING_SEARCHES = [
     ("hexapod-direct", "hexapod-direct/intact-centre-interrupted", "intact", "centre",
