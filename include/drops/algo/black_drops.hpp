@@ -73,7 +73,7 @@ struct BlackDropsOptions {
   /// the next search still starts from it and evaluates it, but runs the best other candidate
   /// instead. A solved best policy, or one whose replays differ (a noisy system), is run again as
   /// usual. Off by default: measured on a deterministic task, it freed one stuck run and cost
-  /// about as much elsewhere (docs/architecture.md, "The policy search", links the study).
+  /// about as much elsewhere (docs/decisions/pendubot-skip-known-replays.md).
   bool skip_known_replays = false;
   /// A trust region around the best real policy (off by default). From episode 2 on, the search
   /// box is theta_best +- r b, intersected with [-b, b], and CMA-ES's sigma0 is scaled by r. The
@@ -95,7 +95,7 @@ struct BlackDropsOptions {
   /// run again. Fresh streams remove the winner's curse of picking the best of many noisy
   /// values; the median of paired differences is not decided by the few streams in which one of
   /// the two falls into an absorbing penalty (which can dominate the means even for a policy
-  /// that never failed on the real system; docs/architecture.md, "An improvement margin"), but a
+  /// that never failed on the real system; docs/decisions/hexapod-improvement-margin.md), but a
   /// policy that falls in more streams than the start loses them.
   /// Episode 1 (the start is not a real policy) and a start that may not be chosen
   /// (skip_known_replays) are unaffected.
@@ -104,14 +104,14 @@ struct BlackDropsOptions {
   /// paired check as improvement_margin (it runs when either is on), and the start is run again
   /// also when the median per-stream difference exceeds this cap. A gain that large over a policy
   /// the real system ran well usually means the model made that policy fail (an absorbing
-  /// penalty on at least half the streams), not that the new one is better (docs/architecture.md,
-  /// "An improvement cap"). Same episodes as improvement_margin.
+  /// penalty on at least half the streams), not that the new one is better
+  /// (docs/decisions/hexapod-improvement-cap.md). Same episodes as improvement_margin.
   double improvement_cap = 0;
   /// A limit on the cap's re-runs (>= 0; 0 = none, the default): improvement_cap is off in an
   /// episode when the real system has already run the best real policy this many times, so that
   /// the cap cannot lock a run on one policy that the model keeps making fail (2: the cap may run
   /// a policy once more, then the model, which has now seen it twice, is believed;
-  /// docs/architecture.md, "An improvement cap").
+  /// docs/decisions/hexapod-improvement-cap-run-limit.md).
   int improvement_cap_max_runs = 0;
   /// Whether the paired check of improvement_margin / improvement_cap is on.
   bool paired_check() const { return improvement_margin > 0 || improvement_cap > 0; }

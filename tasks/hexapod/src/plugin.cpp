@@ -99,15 +99,16 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     // default task's; the GPs on 40-400 points in 66 input dimensions need the soft walls
     // (docs/hexapod.md).
     // The search's budget and GP-MI's score and candidate start were chosen by measurement
-    // (docs/results/hexapod.md, "GP-MI's candidates on equal terms"): with 5,000 evaluations,
+    // (docs/decisions/hexapod-search-budget.md, hexapod-gp-mi-score.md and
+    // hexapod-gp-mi-candidate-start.md): with 5,000 evaluations,
     // the joint likelihood (the paper's sum of likelihoods named a leg-removed prior for the
     // intact robot in 32 of 45 episodes) and every candidate's kernels fitted from a new GP's,
     // the best speeds at episode 8 of any setting measured, intact and without leg 5.
     // The trust region around the best real gait: the model overrates gaits far from its data
-    // (docs/results/hexapod.md, "A trust region around the best real gait").
-    // Length scales within 3 times their input's spread (10 before 2026-11-25): the model's
-    // rollouts err less on new gaits and on the data (docs/hexapod.md, "Tighter walls on the
-    // length scales"; docs/results/hexapod.md, the section of the same name).
+    // (docs/decisions/hexapod-trust-region.md).
+    // Length scales within 3 times their input's spread (10 before the walls study): the model's
+    // rollouts err less on new gaits and on the data
+    // (docs/decisions/hexapod-length-scale-walls.md).
     return {{"policy.bound", "0.5"},
             {"optimizer.max_evaluations", "5000"},
             {"optimizer.trust_region", "true"},

@@ -54,7 +54,7 @@ INSTANTIATE_TEST_SUITE_P(Hexapod, GpMiPicksTheRemovedLeg, ::testing::Values(0, 5
 // With the kernel fits `drops run` uses on the hexapod (PILCO's soft walls: length scales at most
 // 10 times each input's spread, signal-to-noise ratio at most 500), over four data sets of two
 // episodes each, rear leg 0 or 5 removed: measured 7 of 8 picked right (leg 5 on data set 2024
-// was called intact; docs/hexapod.md "Leg identification"). At most one miss is allowed.
+// was called intact; docs/decisions/hexapod-leg-identification.md). At most one miss is allowed.
 TEST(HexapodGpMi, PicksTheRemovedRearLegOnMostDataSetsWithTheSoftWallsOfTheHexapodRuns) {
   model::ModelOptions o;
   o.rprop.penalty = true;
@@ -81,7 +81,7 @@ TEST(HexapodGpMi, PicksTheRemovedRearLegOnMostDataSetsWithTheSoftWallsOfTheHexap
 // 2024 and 7: a robot without one leg moves little differently under gentle gaits), from four
 // episodes on 4 of 4 (margins of the paper's score over the runner-up 4.6, 5.4, 11.8 and 9.8,
 // measured per prior with full kernel fits); with four episodes the rear legs were named on 8 of 8
-// (docs/hexapod.md, "Leg identification"). A run has four episodes of data at its episode 5.
+// (docs/decisions/hexapod-leg-identification.md). A run has four episodes of data at its episode 5.
 TEST(HexapodGpMi, PicksIntactFromFourEpisodesOfTheIntactServoRobotOnEveryDataSet) {
   model::ModelOptions o;
   o.rprop.penalty = true;
