@@ -296,8 +296,8 @@ TEST(Config, TaskDependentDefaultsComeFromTheTaskAndExplicitValuesWin) {
   EXPECT_DOUBLE_EQ(on.model.rprop.max_length_scale_ratio, 100.0);
 }
 
-// A run directory's config.yaml written before the policy-search keys of 2026-11-22 resumes with
-// the search it began with; a config that names the keys (or a user's file) keeps today's.
+// A run directory's config.yaml written before the policy search's rework added its keys resumes
+// with the search it began with; a config that names the keys (or a user's file) keeps today's.
 TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
   const std::string old_run =
       "task: pendubot\noptimizer:\n  max_evaluations: 10000\n  keep_start: false\n";

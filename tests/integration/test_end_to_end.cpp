@@ -319,8 +319,8 @@ TEST(EndToEnd, RunsStartedInTheSameSecondGetADirectoryEach) {
 // prior), and identifies the removed leg. Small budget (500 evaluations per optimization, one
 // optimization on the prior), fixed seeds 1-3: the speed gain (best of episodes 2-3 minus
 // episode 1) must exceed 0.05 m/s in at least 2 of the 3 runs, and every run must name leg 5 at
-// episode 3. A single seed at this budget is too fragile a threshold: measured on 2026-11-25
-// with the hexapod's defaults (length-scale walls 3) the gains were 0.039, 0.144 and 0.091 m/s
+// episode 3. A single seed at this budget is too fragile a threshold: measured with the hexapod's
+// defaults (length-scale walls 3) the gains were 0.039, 0.144 and 0.091 m/s
 // (walls 10: 0.065, 0.170, 0.076), leg 5 named at episodes 2 and 3 in all six runs; about 6 s
 // per run on one core.
 TEST(EndToEnd, HexapodWithoutARearLegWalksFasterThanThePriorOnlyPolicyWithinThreeEpisodes) {

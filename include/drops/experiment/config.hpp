@@ -66,7 +66,7 @@ Settings load_settings_file(const Registry& registry, const std::string& path,
 /// wrote it). Keys of other tasks are dropped (run directories written before tasks had their own
 /// sections hold every task's keys). A key added to drops after that run was written, whose
 /// default changed what a run does, gets the value that reproduces the old behaviour instead of
-/// today's default: the policy search keys of 2026-11-22 (optimizer.selection best_seen,
+/// today's default: the keys the policy search's rework added (optimizer.selection best_seen,
 /// optimizer.run_evaluations 0, optimizer.stagnation false, optimizer.tol_fun 1e-12,
 /// optimizer.restart_from random). So a resumed or repeated old run goes on as it began, and a
 /// campaign sees that it differs from one with today's defaults. Throws as load_settings.

@@ -83,7 +83,7 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_EQ(e.setup.task->horizon(), 40);
   // PILCO's soft walls: on by default for the hexapod, with its own length-scale ratio.
   EXPECT_TRUE(a.model.rprop.penalty);
-  EXPECT_DOUBLE_EQ(a.model.rprop.max_length_scale_ratio, 3.0);  // measured, 2026-11-25
+  EXPECT_DOUBLE_EQ(a.model.rprop.max_length_scale_ratio, 3.0);  // measured by the walls study
   // Explicit values win over the derived ones.
   const auto x = experiment::black_drops_options(
       make("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}).settings);
@@ -225,7 +225,7 @@ TEST(HexapodPlugin, ResolvedDerivedDefaultsEqualExplicitOnes) {
   auto old = experiment::load_run_settings(registry(), "task: hexapod\n", {});
   experiment::resolve_derived_defaults(registry(), old);
   EXPECT_EQ(old.at("model.gp_mi.candidate_start"), "best_so_far");
-  // ... and without the trust region, which the hexapod's runs have used since 2026-11-25.
+  // ... and without the trust region, which the hexapod's runs have used since its study.
   EXPECT_EQ(hex.at("optimizer.trust_region"), "true");
   EXPECT_EQ(old.at("optimizer.trust_region"), "false");
   EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "3");

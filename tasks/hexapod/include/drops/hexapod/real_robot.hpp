@@ -15,7 +15,7 @@
 ///   GP-MI) explained the robot without leg 0 by the prior without leg 5 and vice versa; with
 ///   kp = 10 the joints lag about 0.024 rad, the body stands at about 0.186 m (prior 0.19 m), and
 ///   the tripod gait of the tests walks at about 0.24 m/s against 0.28 m/s in the prior, the gap
-///   now coming mostly from the ground friction below (measured in the session of 2026-11-21);
+///   now coming mostly from the ground friction below (measured);
 /// - joint friction: viscous 0.02 N m s/rad and Coulomb 0.05 N m (DART joint damping and
 ///   Coulomb friction constraints);
 /// - physics step 1 ms (prior: 10 ms); control every 0.1 s as the prior;
