@@ -3,7 +3,10 @@
 # drops into a temporary prefix, build this example against that installed package only, and run
 # Black-DROPS with GP-MI on the cart-pole. At the last of 6 episodes the cart-pole must be swung up
 # (balanced within 0.15 m of upright for 1 s: the task's "solved") and GP-MI must have identified
-# the pole length within 10 % (the prior says 0.35 m, the real pole is 0.5 m).
+# the pole length within 10 % (the prior says 0.35 m, the real pole is 0.5 m). The example is
+# compiled with -march=native, as a user's code may be: the installed package must carry the Eigen
+# settings the library was built with (a mismatch crashes with "double free or corruption"). A
+# consumer of drops::hexapod must configure too (the package finds the hexapod's dependencies).
 # Usage: test_installed.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
 build_dir=$1
@@ -16,7 +19,7 @@ step "install drops into $tmp/prefix"
 cmake --install "$build_dir" --prefix "$tmp/prefix" >"$tmp/install.log"
 step "configure and build examples/cartpole against it"
 cmake -S "$source_dir/examples/cartpole" -B "$tmp/build" -DCMAKE_BUILD_TYPE=Release \
-  -Ddrops_DIR="$tmp/prefix/lib/cmake/drops" -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON \
+  -DCMAKE_CXX_FLAGS=-march=native -Ddrops_DIR="$tmp/prefix/lib/cmake/drops" -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON \
   >"$tmp/configure.log" || { cat "$tmp/configure.log"; exit 1; }
 cmake --build "$tmp/build" -j2 >"$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; exit 1; }
 # Only the installed package was used: no path into the drops sources or build tree.
@@ -24,6 +27,21 @@ if grep -q -e "$source_dir/include" -e "$source_dir/tasks" -e "$build_dir" \
     "$tmp/build/CMakeFiles/cartpole_drops.dir/flags.make" "$tmp/build/CMakeFiles/cartpole_drops.dir/link.txt"; then
   echo "the example was built against the drops sources or build tree, not the installed package"
   exit 1
+fi
+if grep -q 'drops_WITH_HEXAPOD ON' "$tmp/prefix/lib/cmake/drops/dropsConfig.cmake"; then
+  step "configure a consumer of drops::hexapod"
+  mkdir -p "$tmp/hexapod_consumer"
+  cat >"$tmp/hexapod_consumer/CMakeLists.txt" <<'CMAKE'
+cmake_minimum_required(VERSION 3.22)
+project(hexapod_consumer LANGUAGES CXX)
+find_package(drops 0.1 REQUIRED)
+add_executable(consumer main.cpp)
+target_link_libraries(consumer PRIVATE drops::hexapod)
+CMAKE
+  echo 'int main() { return 0; }' >"$tmp/hexapod_consumer/main.cpp"
+  cmake -S "$tmp/hexapod_consumer" -B "$tmp/hexapod_consumer/build" \
+    -Ddrops_DIR="$tmp/prefix/lib/cmake/drops" -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON \
+    >"$tmp/hexapod_configure.log" 2>&1 || { cat "$tmp/hexapod_configure.log"; exit 1; }
 fi
 step "run GP-MI on the cart-pole"
 "$tmp/build/cartpole_drops" run "$source_dir/examples/cartpole/cartpole-gp_mi.yaml" \
