@@ -137,14 +137,14 @@ BENCHMARK(BM_GpMiLearning)
 void optimize_on(benchmark::State& state, const model::DynamicsModel& model) {
   const hexapod::HexapodTask task;
   const hexapod::HexapodGaitPolicy policy;
-  algo::BlackDropsOptions o;
+  algo::PolicySearchOptions o;
   o.theta_bound = hexapod::HexapodGaitPolicyOptions{}.theta_bound;
   o.cmaes.max_evaluations = kPolicyBudget;
   o.rollouts.rollouts = 1;
   long evaluations = 0, nonfinite = 0;
   for (auto _ : state) {
-    const auto s =
-        algo::optimize_policy(task, model, policy, VectorXd::Zero(36), o, 123, nullptr, &nonfinite);
+    const auto s = algo::optimize_policy(task, model, policy, o, {VectorXd::Zero(36), 123});
+    nonfinite += s.nonfinite_model_steps;
     evaluations += s.search.evaluations;
     state.counters["predicted_return"] = s.value;
   }

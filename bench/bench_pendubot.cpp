@@ -67,7 +67,7 @@ void BM_RolloutThroughput(benchmark::State& state) {
       for (int i = 0; i < 81; ++i) thetas[static_cast<std::size_t>(k)][i] = rng.uniform(-5, 5);
       seeds[static_cast<std::size_t>(k)] = rng();
     }
-    rollout::evaluate_policies(*s.task, *m, *s.pol, thetas, seeds, s.algo.rollouts, returns);
+    rollout::evaluate_policies(*s.task, *m, *s.pol, thetas, seeds, s.algo.search.rollouts, returns);
     evaluations += lambda;
   }
   state.counters["evals_per_s"] = benchmark::Counter(static_cast<double>(evaluations),
@@ -90,8 +90,8 @@ void BM_PolicyOptimization(benchmark::State& state) {
   Setup s(static_cast<int>(state.range(0)));
   auto m = s.learned();
   for (auto _ : state) {
-    const auto summary = algo::optimize_policy(*s.task, *m, *s.pol, VectorXd::Zero(81), s.algo,
-                                               123, nullptr, nullptr);
+    const auto summary =
+        algo::optimize_policy(*s.task, *m, *s.pol, s.algo.search, {VectorXd::Zero(81), 123});
     state.counters["evals"] = static_cast<double>(summary.search.evaluations);
     state.counters["predicted_return"] = summary.value;
   }

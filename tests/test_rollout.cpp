@@ -140,41 +140,6 @@ TEST(Rollout, MedianStatisticIsTheMedianOfTheRolloutsReturns) {
   }
 }
 
-// The quantile statistic interpolates between the sorted returns of the rollouts (oracle: each
-// rollout run alone through run_episode, then numpy's default rule h = (R - 1) q), lies below the
-// median for q < 0.5, and at q = 0.5 is the median statistic itself.
-TEST(Rollout, QuantileStatisticInterpolatesTheSortedRolloutReturns) {
-  Fixture f;
-  const int R = 6;
-  rollout::RolloutOptions o;
-  o.rollouts = R;
-  o.batch = 4;
-  o.statistic = rollout::ReturnStatistic::kMedian;
-  VectorXd median, half, low;
-  rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, median);
-  o.statistic = rollout::ReturnStatistic::kQuantile;
-  o.quantile = 0.5;
-  rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, half);
-  o.quantile = 0.3;
-  rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, low);
-  double largest_gap = 0;
-  for (std::size_t k = 0; k < f.thetas.size(); ++k) {
-    const std::vector<double> r = sorted_rollout_returns(f, o, k);
-    const double h = (R - 1) * 0.3;  // 1.5: halfway between the 2nd and 3rd smallest
-    const double expected = r[1] + (h - 1) * (r[2] - r[1]);
-    const auto i = static_cast<Eigen::Index>(k);
-    EXPECT_NEAR(low[i], expected, 1e-6) << "policy " << k;
-    EXPECT_NEAR(half[i], median[i], 1e-9) << "policy " << k;
-    EXPECT_LE(low[i], median[i] + 1e-12) << "policy " << k;
-    largest_gap = std::max(largest_gap, median[i] - low[i]);
-  }
-  EXPECT_GT(largest_gap, 1e-3);
-  o.quantile = 1.0;
-  std::string why;
-  EXPECT_FALSE(o.IsValid(&why));
-  EXPECT_NE(why.find("quantile"), std::string::npos) << why;
-}
-
 namespace {
 /// A 1-D toy: x climbs by 1 per step (whatever the action) until it reaches `top`, where it
 /// stays; reward x per step. With `absorbing`, x >= top is declared absorbing.

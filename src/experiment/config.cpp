@@ -41,20 +41,21 @@ std::string restart_name(opt::CmaesRestartStart r) {
 /// task changes it: what they are when the task says nothing (the Options structs' defaults).
 std::map<std::string, std::string> fallback_defaults() {
   const algo::BlackDropsOptions d;
-  return {{"policy.bound", num(d.theta_bound)},
-          {"optimizer.max_evaluations", num(static_cast<double>(d.cmaes.max_evaluations))},
-          {"optimizer.reevaluation_rollouts", num(d.reevaluation_rollouts)},
+  return {{"policy.bound", num(d.search.theta_bound)},
+          {"optimizer.max_evaluations", num(static_cast<double>(d.search.cmaes.max_evaluations))},
+          {"optimizer.reevaluation_rollouts", num(d.search.reevaluation.rollouts)},
           {"model.rprop.max_length_scale_ratio", num(d.model.rprop.max_length_scale_ratio)},
           {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"},
           {"model.gp_mi.score", score_name(d.model.gp_mi.score)},
           {"model.gp_mi.candidate_start", candidate_start_name(d.model.gp_mi.candidate_start)},
-          {"optimizer.trust_region", d.trust_region ? "true" : "false"}};
+          {"optimizer.trust_region", d.trust_region.enabled ? "true" : "false"}};
 }
 
 std::vector<KeySpec> build_base_keys() {
   const algo::BlackDropsOptions d;  // the single source of the defaults
   const auto& m = d.model;
-  const auto& c = d.cmaes;
+  const auto& c = d.search.cmaes;
+  const auto& ps = d.search;
   std::vector<KeySpec> s;
   auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
   const double big = 1e9;
@@ -127,7 +128,7 @@ std::vector<KeySpec> build_base_keys() {
        "Subplex relative tolerance of MI"});
   add({"policy.bound", "double", "", 1e-3, 1000, {}, "-",
        "policy parameters are searched in [-bound, bound] (empty = the task's choice: " +
-           num(d.theta_bound) + " unless the task says otherwise)"});
+           num(ps.theta_bound) + " unless the task says otherwise)"});
   add({"optimizer.max_evaluations", "int", "", 10, 100000000, {}, "-",
        "CMA-ES policy evaluations per optimization, all restarts (empty = the task's choice: " +
            num(static_cast<double>(c.max_evaluations)) +
@@ -161,40 +162,21 @@ std::vector<KeySpec> build_base_keys() {
        "BIPOP restarts (false = IPOP)"});
   add({"optimizer.uncertainty_handling", "bool", boolean(c.uncertainty_handling), 0, 0, {}, "-",
        "Hansen et al. 2009 uncertainty handling for the noisy rollout objective"});
-  add({"optimizer.keep_start", "bool", boolean(d.keep_start_point), 0, 0, {}, "-",
+  add({"optimizer.keep_start", "bool", boolean(ps.keep_start_point), 0, 0, {}, "-",
        "the best policy so far is the start and a candidate: each search starts from the policy of "
        "the best real episode, evaluates it on the current model like any candidate and runs it again "
        "unless a candidate beats it (as the reference's CMA-ES wrapper); false = the start only "
        "centres the first CMA-ES run"});
-  add({"optimizer.skip_known_replays", "bool", boolean(d.skip_known_replays), 0, 0, {}, "-",
-       "when the best policy so far has been run again with the same return (the system is "
-       "deterministic there) and did not solve the task, the next episode runs the search's best "
-       "other policy instead of a third identical run (false: it may be replayed again; measured "
-       "in docs/architecture.md, \"The policy search\")"});
   add({"optimizer.trust_region", "bool", "", 0, 0, {}, "-",
        "from episode 2 on, search only within r * policy.bound of the best real policy, with "
        "CMA-ES's sigma0 scaled by r (r = 1: the whole box); r starts at 1, doubles after a new "
        "policy beat the best real return and halves after one that did not (TuRBO's rule; "
        "docs/architecture.md, \"The policy search\"); empty = the task's choice: " +
-           std::string(boolean(d.trust_region)) + " unless the task says otherwise"});
-  add({"optimizer.trust_region_min", "double", num(d.trust_region_min), 1e-6, 1, {}, "-",
+           std::string(boolean(d.trust_region.enabled)) + " unless the task says otherwise"});
+  add({"optimizer.trust_region_min", "double", num(d.trust_region.min_radius), 1e-6, 1, {}, "-",
        "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
-  add({"optimizer.improvement_margin", "double", num(d.improvement_margin), 0, 1e6, {}, "return",
-       "from episode 2 on (optimizer.keep_start, optimizer.selection reevaluate): a policy chosen "
-       "over the best real episode's is run only if, on optimizer.reevaluation_rollouts fresh "
-       "streams shared by both, the median of its return minus the best one's exceeds this "
-       "(0 = off); otherwise the best real policy is run again"});
-  add({"optimizer.improvement_cap", "double", num(d.improvement_cap), 0, 1e6, {}, "return",
-       "the same paired check (on when this or optimizer.improvement_margin is): the best real "
-       "policy is also run again when the median difference exceeds this cap, a gain that large "
-       "meaning the model made the best real policy fail (0 = off; if on, above the margin)"});
-  add({"optimizer.improvement_cap_max_runs", "int", std::to_string(d.improvement_cap_max_runs), 0,
-       1000, {}, "-",
-       "optimizer.improvement_cap is off in an episode once the real system has run the best real "
-       "policy this many times, so that the cap cannot lock a run on one policy (0 = no limit; 2 "
-       "= the cap may run a policy once more)"});
   add({"optimizer.selection", "enum",
-       d.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
+       ps.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
        {"reevaluate", "best_seen"}, "-",
        "which evaluated policy is run: reevaluate = the best value (rollouts.statistic) when the "
        "start, the best evaluated policies and each run's final mean are re-evaluated with many "
@@ -202,32 +184,27 @@ std::vector<KeySpec> build_base_keys() {
        "reference)"});
   add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
        "selection reevaluate: rollouts per re-evaluated policy, on common random numbers (empty = "
-       "the task's choice: " + num(d.reevaluation_rollouts) +
+       "the task's choice: " + num(ps.reevaluation.rollouts) +
            " unless the task says otherwise)"});
-  add({"optimizer.reevaluation_candidates", "int", num(d.reevaluation_candidates), 1, 10000, {},
+  add({"optimizer.reevaluation_candidates", "int", num(ps.reevaluation.candidates), 1, 10000, {},
        "-",
        "selection reevaluate: best distinct evaluated policies re-evaluated (besides the start and "
        "the runs' final means)"});
   add({"optimizer.prior_optimizations", "int", num(d.prior_optimizations), 1, 100, {}, "-",
        "with a prior: successive optimizations on the prior alone for episode 1"});
-  add({"rollouts.count", "int", num(d.rollouts.rollouts), 1, 10000, {}, "-",
+  add({"rollouts.count", "int", num(ps.rollouts.rollouts), 1, 10000, {}, "-",
        "Monte-Carlo rollouts per policy evaluation, combined by rollouts.statistic"});
   add({"rollouts.statistic", "enum",
-       d.rollouts.statistic == rollout::ReturnStatistic::kMedian     ? "median"
-       : d.rollouts.statistic == rollout::ReturnStatistic::kQuantile ? "quantile"
-                                                                      : "mean",
-       0, 0, {"mean", "median", "quantile"}, "-",
+       ps.rollouts.statistic == rollout::ReturnStatistic::kMedian ? "median" : "mean", 0, 0,
+       {"mean", "median"}, "-",
        "how a policy's rollout returns combine into its value on the model, in the search "
        "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = "
        "the expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
-       "predicted falls (docs/architecture.md, \"The policy search\"); quantile = the "
-       "rollouts.quantile of the returns, below the median a pessimistic value that penalizes "
-       "policies the model is unsure of. The reported predicted return is always the mean"});
-  add({"rollouts.quantile", "double", num(d.rollouts.quantile), 0.001, 0.999, {}, "-",
-       "rollouts.statistic quantile: the quantile q of the rollouts' returns (0.5 = the median)"});
-  add({"rollouts.clip", "double", num(d.rollouts.clip), 0, 100, {}, "sigma",
+       "predicted falls (docs/architecture.md, \"The policy search\"). The reported predicted "
+       "return is always the mean"});
+  add({"rollouts.clip", "double", num(ps.rollouts.clip), 0, 100, {}, "sigma",
        "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
-  add({"rollouts.batch", "int", num(d.rollouts.batch), 1, 1024, {}, "-",
+  add({"rollouts.batch", "int", num(ps.rollouts.batch), 1, 1024, {}, "-",
        "rollouts advanced together through batched GP predictions"});
   add({"rollouts.predicted", "int", num(d.predicted_rollouts), 1, 100000, {}, "-",
        "rollouts used to report each episode's predicted return"});
@@ -501,9 +478,6 @@ Settings load_run_settings(const Registry& registry, const std::string& yaml_tex
       {"optimizer.restart_from", "random"},
       {"model.gp_mi.candidate_start", "best_so_far"},
       {"optimizer.trust_region", "false"},
-      {"optimizer.improvement_margin", "0"},
-      {"optimizer.improvement_cap", "0"},
-      {"optimizer.improvement_cap_max_runs", "0"},
   };
   std::vector<std::pair<std::string, YAML::Node>> present;
   flatten(parse_yaml(yaml_text, "config"), "",

@@ -33,7 +33,6 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   algo::BlackDropsOptions a;
   a.episodes = static_cast<int>(get_int(st, "episodes"));
   a.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
-  a.theta_bound = get_double(st, "policy.bound");
   auto& m = a.model;
   m.type = model::parse_model_type(st.at("model.type"));
   m.rprop.max_iterations = static_cast<int>(get_int(st, "model.rprop.iterations"));
@@ -58,27 +57,22 @@ algo::BlackDropsOptions black_drops_options(const Settings& st) {
   m.gp_mi.max_points = static_cast<int>(get_int(st, "model.gp_mi.max_points"));
   m.mi.max_evaluations = static_cast<int>(get_int(st, "model.mi.max_evaluations"));
   m.mi.xtol_rel = m.mi.ftol_rel = get_double(st, "model.mi.tolerance");
-  a.cmaes = cmaes_options(st);
   a.prior_optimizations = static_cast<int>(get_int(st, "optimizer.prior_optimizations"));
-  a.keep_start_point = get_bool(st, "optimizer.keep_start");
-  a.skip_known_replays = get_bool(st, "optimizer.skip_known_replays");
-  a.trust_region = get_bool(st, "optimizer.trust_region");
-  a.trust_region_min = get_double(st, "optimizer.trust_region_min");
-  a.improvement_margin = get_double(st, "optimizer.improvement_margin");
-  a.improvement_cap = get_double(st, "optimizer.improvement_cap");
-  a.improvement_cap_max_runs = static_cast<int>(get_int(st, "optimizer.improvement_cap_max_runs"));
-  a.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
+  a.trust_region.enabled = get_bool(st, "optimizer.trust_region");
+  a.trust_region.min_radius = get_double(st, "optimizer.trust_region_min");
+  auto& p = a.search;
+  p.theta_bound = get_double(st, "policy.bound");
+  p.cmaes = cmaes_options(st);
+  p.keep_start_point = get_bool(st, "optimizer.keep_start");
+  p.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
                                                             : algo::PolicySelection::kReevaluate;
-  a.reevaluation_rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));
-  a.reevaluation_candidates = static_cast<int>(get_int(st, "optimizer.reevaluation_candidates"));
-  a.rollouts.rollouts = static_cast<int>(get_int(st, "rollouts.count"));
-  a.rollouts.clip = get_double(st, "rollouts.clip");
-  const std::string& statistic = st.at("rollouts.statistic");
-  a.rollouts.statistic = statistic == "median"     ? rollout::ReturnStatistic::kMedian
-                         : statistic == "quantile" ? rollout::ReturnStatistic::kQuantile
-                                                   : rollout::ReturnStatistic::kMean;
-  a.rollouts.quantile = get_double(st, "rollouts.quantile");
-  a.rollouts.batch = static_cast<int>(get_int(st, "rollouts.batch"));
+  p.reevaluation.rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));
+  p.reevaluation.candidates = static_cast<int>(get_int(st, "optimizer.reevaluation_candidates"));
+  p.rollouts.rollouts = static_cast<int>(get_int(st, "rollouts.count"));
+  p.rollouts.clip = get_double(st, "rollouts.clip");
+  p.rollouts.statistic = st.at("rollouts.statistic") == "median" ? rollout::ReturnStatistic::kMedian
+                                                                 : rollout::ReturnStatistic::kMean;
+  p.rollouts.batch = static_cast<int>(get_int(st, "rollouts.batch"));
   a.predicted_rollouts = static_cast<int>(get_int(st, "rollouts.predicted"));
   std::string why;
   if (!a.IsValid(&why)) throw ConfigError("config: " + why);

@@ -16,7 +16,6 @@ bool RolloutOptions::IsValid(std::string* why) const {
   if (rollouts < 1) return fail("rollouts must be >= 1");
   if (!(clip >= 0)) return fail("clip must be >= 0");
   if (batch < 1) return fail("batch must be >= 1");
-  if (!(quantile > 0 && quantile < 1)) return fail("quantile must be in (0, 1)");
   return true;
 }
 
@@ -165,13 +164,6 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       std::nth_element(first, mid, last);
       value = *mid;
       if (R % 2 == 0) value = 0.5 * (value + *std::max_element(first, mid));
-    } else if (options.statistic == ReturnStatistic::kQuantile) {
-      std::sort(first, last);
-      const double h = static_cast<double>(R - 1) * options.quantile;
-      const auto lo = static_cast<std::ptrdiff_t>(std::floor(h));
-      value = first[lo];
-      if (lo + 1 < static_cast<std::ptrdiff_t>(R))
-        value += (h - static_cast<double>(lo)) * (first[lo + 1] - first[lo]);
     } else {
       for (auto it = first; it != last; ++it) value += *it;
       value /= static_cast<double>(R);

@@ -25,10 +25,6 @@ enum class ReturnStatistic {
   kMean,    ///< the mean return: the expected return of Black-DROPS (paper Eq. 3 and 8)
   kMedian,  ///< the median return (the mean of the two middle ones for an even count): a value
             ///< that a minority of rollouts (e.g. rare predicted falls) cannot move far
-  kQuantile,  ///< the RolloutOptions::quantile of the returns (linear interpolation between the
-              ///< sorted returns r_(0) <= ... <= r_(R-1) at h = (R - 1) q, numpy's default): for
-              ///< q < 0.5 a pessimistic value, lower the more the rollouts spread, i.e. the
-              ///< less the model knows about the policy (a lower confidence bound)
 };
 
 /// How a model rollout draws the next state difference from the predictive N(mu, sigma^2).
@@ -38,8 +34,6 @@ struct RolloutOptions {
   int rollouts = 1;
   /// How the rollouts' returns combine into the policy's value (the mean by default).
   ReturnStatistic statistic = ReturnStatistic::kMean;
-  /// The quantile q in (0, 1) of ReturnStatistic::kQuantile (unused by the others).
-  double quantile = 0.25;
   /// Draw dx ~ N(mu, sigma^2) per output; false propagates the mean only (deterministic).
   bool sample = true;
   /// Clip each standard-normal draw to [-clip, clip] (the reference clips at 1, i.e. mu +- sigma);

@@ -74,13 +74,14 @@ LearnAndSearch learn_and_search(int threads, const std::vector<Transition>& data
   const auto t0 = std::chrono::steady_clock::now();
   const HexapodTask task;
   HexapodGaitPolicy policy;
-  algo::BlackDropsOptions o;
+  algo::PolicySearchOptions o;
   o.theta_bound = HexapodGaitPolicyOptions{}.theta_bound;
   o.cmaes.max_evaluations = 200;
   o.rollouts.rollouts = 1;
   Rng rng(5);
-  r.search = algo::optimize_policy(task, *m, policy, policy.theta_of(testing::gentle_gait(rng)), o,
-                                   77, nullptr, &r.nonfinite_steps);
+  r.search = algo::optimize_policy(task, *m, policy, o,
+                                   {policy.theta_of(testing::gentle_gait(rng)), 77});
+  r.nonfinite_steps = r.search.nonfinite_model_steps;
   std::printf("[info] %d thread(s): learning %.1f s (%d rounds), policy search %.1f s\n", threads,
               r.learned.seconds, r.learned.rounds, seconds_since(t0));
   return r;

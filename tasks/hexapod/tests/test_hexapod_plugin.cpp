@@ -73,13 +73,13 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_EQ(p.upper[0], 5.0);
   EXPECT_EQ(e.setup.prior_label, "intact");
   EXPECT_EQ(e.setup.phi_actual, (std::vector<double>{-1}));
-  EXPECT_DOUBLE_EQ(a.theta_bound, 0.5);  // gait parameters theta + 0.5 in [0, 1]
-  EXPECT_EQ(a.cmaes.max_evaluations, 5000);
-  EXPECT_EQ(a.reevaluation_rollouts, 20);
+  EXPECT_DOUBLE_EQ(a.search.theta_bound, 0.5);  // gait parameters theta + 0.5 in [0, 1]
+  EXPECT_EQ(a.search.cmaes.max_evaluations, 5000);
+  EXPECT_EQ(a.search.reevaluation.rollouts, 20);
   // GP-MI: the joint likelihood, every candidate's kernels from a new GP's (measured choices).
   EXPECT_EQ(a.model.gp_mi.score, model::GpMiScore::kSumOfLogLikelihoods);
   EXPECT_EQ(a.model.gp_mi.candidate_start, model::GpMiCandidateStart::kInitial);
-  EXPECT_TRUE(a.trust_region);  // around the best real gait (measured)
+  EXPECT_TRUE(a.trust_region.enabled);  // around the best real gait (measured)
   EXPECT_EQ(e.setup.task->horizon(), 40);
   // PILCO's soft walls: on by default for the hexapod, with its own length-scale ratio.
   EXPECT_TRUE(a.model.rprop.penalty);
@@ -87,8 +87,8 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   // Explicit values win over the derived ones.
   const auto x = experiment::black_drops_options(
       make("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}).settings);
-  EXPECT_DOUBLE_EQ(x.theta_bound, 0.25);
-  EXPECT_EQ(x.cmaes.max_evaluations, 300);
+  EXPECT_DOUBLE_EQ(x.search.theta_bound, 0.25);
+  EXPECT_EQ(x.search.cmaes.max_evaluations, 300);
   // Report labels: the damage as panel, the walking speed as metric, no success criterion.
   EXPECT_EQ(e.report.panel.label, "intact");
   EXPECT_EQ(e.report.metric.name, "walking_speed_m_s");
