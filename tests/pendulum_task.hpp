@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "drops/core/errors.hpp"
+#include "drops/core/problem.hpp"
 #include "drops/model/mean_function.hpp"
 #include "drops/pilco/task_model.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::testing {
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/model/mean_function.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace cartpole {
 

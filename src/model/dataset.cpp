@@ -20,7 +20,7 @@ Dataset Dataset::rows(const std::vector<int>& idx) const {
   return Dataset{take_rows(x, idx), take_rows(u, idx), take_rows(dx, idx), take_rows(gp_in, idx)};
 }
 
-Dataset make_dataset(const std::vector<Transition>& data, const rollout::Task* task, int E, int U) {
+Dataset make_dataset(const std::vector<Transition>& data, const Task* task, int E, int U) {
   Dataset d;
   const int N = static_cast<int>(data.size());
   d.x.resize(N, E);

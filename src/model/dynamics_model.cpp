@@ -65,7 +65,7 @@ std::string ModelSummary::BriefReport() const {
 }
 
 std::unique_ptr<DynamicsModel> make_model(const ModelOptions& options,
-                                          std::shared_ptr<const rollout::Task> task,
+                                          std::shared_ptr<const Task> task,
                                           std::shared_ptr<const MeanFunction> prior,
                                           const PriorParameters& parameters) {
   if (!task) throw InvalidArgument("make_model: task is null");

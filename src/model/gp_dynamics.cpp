@@ -21,7 +21,7 @@ std::string format_phi(const VectorXd& phi) {
 }  // namespace
 
 GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
-                                 std::shared_ptr<const rollout::Task> task,
+                                 std::shared_ptr<const Task> task,
                                  std::shared_ptr<const MeanFunction> prior,
                                  const PriorParameters& parameters)
     : options_(options), task_(std::move(task)), prior_(std::move(prior)), params_(parameters) {

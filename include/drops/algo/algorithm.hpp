@@ -13,13 +13,13 @@
 #include <string>
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/ite/archive.hpp"
 #include "drops/ite/map_elites.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/opt/cmaes.hpp"
 #include "drops/policy/policy.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::algo {
 

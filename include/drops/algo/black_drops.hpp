@@ -10,11 +10,11 @@
 
 #include "drops/algo/algorithm.hpp"
 #include "drops/algo/policy_search.hpp"
+#include "drops/core/problem.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/opt/cmaes.hpp"
 #include "drops/policy/policy.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::algo {
 

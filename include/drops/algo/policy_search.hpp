@@ -12,7 +12,7 @@
 #include "drops/opt/cmaes.hpp"
 #include "drops/policy/policy.hpp"
 #include "drops/rollout/rollout.hpp"
-#include "drops/rollout/task.hpp"
+#include "drops/core/problem.hpp"
 
 namespace drops::algo {
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/core/types.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::ite {
 
@@ -23,10 +23,10 @@ struct BehaviourDescriptor {
   /// The descriptor of an episode (states (H + 1) x E, actions, rewards) in [0, 1]^k. A
   /// non-finite value marks an episode MAP-Elites cannot place (counted as invalid). Must be
   /// thread-safe: MAP-Elites calls it from several threads at once.
-  std::function<VectorXd(const rollout::Trajectory&)> describe;
+  std::function<VectorXd(const Trajectory&)> describe;
   /// Optional: false for an episode that MAP-Elites must discard (the reference's "dead"
   /// individuals, e.g. a robot that turned over). Empty: every episode counts. Thread-safe.
-  std::function<bool(const rollout::Trajectory&)> alive;
+  std::function<bool(const Trajectory&)> alive;
   /// One line on how the descriptor is computed (the archive file's comment), e.g. "the fraction
   /// of the 40 control steps at which each foot is within 5 mm of the ground".
   std::string doc;

@@ -4,9 +4,9 @@
 
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/core/types.hpp"
 #include "drops/model/mean_function.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::model {
 
@@ -24,7 +24,7 @@ struct Dataset {
 /// Builds the dataset of `data` (x dim E, u dim U, dx dim E each). With a task, gp_in holds the
 /// task's observation of x followed by u. Throws InvalidArgument naming the transition on a size
 /// mismatch or a non-finite value. Thread-safe.
-Dataset make_dataset(const std::vector<Transition>& data, const rollout::Task* task, int E, int U);
+Dataset make_dataset(const std::vector<Transition>& data, const Task* task, int E, int U);
 
 /// Indices of an evenly spaced subset of at most max_points of N rows (floor(k N / max_points));
 /// every row when max_points <= 0 or N <= max_points. Thread-safe.

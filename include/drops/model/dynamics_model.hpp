@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/core/types.hpp"
 #include "drops/gp/gp.hpp"
 #include "drops/model/gp_mi.hpp"
 #include "drops/model/mean_function.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::model {
 
@@ -96,7 +96,7 @@ class DynamicsModel {
 /// prior and parameters are required for every type but gp (parameters.values is the starting
 /// phi). Throws InvalidArgument when a prior is required but missing, or parameters are invalid.
 std::unique_ptr<DynamicsModel> make_model(const ModelOptions& options,
-                                          std::shared_ptr<const rollout::Task> task,
+                                          std::shared_ptr<const Task> task,
                                           std::shared_ptr<const MeanFunction> prior,
                                           const PriorParameters& parameters);
 

@@ -19,7 +19,7 @@ class GpDynamicsModel final : public DynamicsModel {
   /// for gp_prior and gp_mi (parameters.values is the starting phi), ignored (pass null and {})
   /// for gp. Throws InvalidArgument when options are invalid, the prior is missing or does not
   /// fit the task, or the parameters are invalid.
-  GpDynamicsModel(const ModelOptions& options, std::shared_ptr<const rollout::Task> task,
+  GpDynamicsModel(const ModelOptions& options, std::shared_ptr<const Task> task,
                   std::shared_ptr<const MeanFunction> prior, const PriorParameters& parameters);
 
   ModelType type() const override { return options_.type; }
@@ -38,7 +38,7 @@ class GpDynamicsModel final : public DynamicsModel {
 
  private:
   ModelOptions options_;
-  std::shared_ptr<const rollout::Task> task_;
+  std::shared_ptr<const Task> task_;
   std::shared_ptr<const MeanFunction> prior_;
   PriorParameters params_;
   int E_ = 0, U_ = 0, O_ = 0;

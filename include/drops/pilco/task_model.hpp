@@ -1,5 +1,5 @@
 #pragma once
-/// \file What PILCO needs to know about a task beyond drops' generic rollout::Task: which state
+/// \file What PILCO needs to know about a task beyond drops' generic Task: which state
 /// entries are angles, what the policy and the GP see in PILCO's augmented space, the saturating
 /// cost's target and distance, the initial state distribution and the policy's initial length
 /// scales (baselines.md §1a, "State bookkeeping" and "Saturating cost"). A task provides it

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/policy/policy.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::rollout {
 

@@ -5,10 +5,10 @@
 
 #include <array>
 
+#include "drops/core/problem.hpp"
 #include "drops/core/types.hpp"
 #include "drops/hexapod/prior.hpp"
 #include "drops/hexapod/simulator.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::hexapod {
 

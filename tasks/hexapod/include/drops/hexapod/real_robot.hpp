@@ -28,7 +28,7 @@
 #include <memory>
 #include <string>
 
-#include "drops/rollout/task.hpp"
+#include "drops/core/problem.hpp"
 #include "drops/hexapod/simulator.hpp"
 
 namespace drops::hexapod {

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "drops/rollout/task.hpp"
+#include "drops/core/problem.hpp"
 #include "drops/hexapod/simulator.hpp"
 
 namespace drops::hexapod {

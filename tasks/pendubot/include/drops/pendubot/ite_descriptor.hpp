@@ -4,8 +4,8 @@
 
 #include <array>
 
+#include "drops/core/problem.hpp"
 #include "drops/core/types.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::pendubot {
 

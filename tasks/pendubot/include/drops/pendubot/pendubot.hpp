@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
+#include "drops/core/problem.hpp"
 #include "drops/model/mean_function.hpp"
 #include "drops/pilco/task_model.hpp"
-#include "drops/rollout/task.hpp"
 
 namespace drops::pendubot {
 

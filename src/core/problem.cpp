@@ -1,6 +1,6 @@
-#include "drops/rollout/task.hpp"
+#include "drops/core/problem.hpp"
 
-namespace drops::rollout {
+namespace drops {
 
 std::vector<Transition> Trajectory::transitions() const {
   std::vector<Transition> out;
@@ -15,4 +15,4 @@ std::vector<Transition> Trajectory::transitions() const {
   return out;
 }
 
-}  // namespace drops::rollout
+}  // namespace drops

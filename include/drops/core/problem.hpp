@@ -1,6 +1,8 @@
 #pragma once
 /// \file Interfaces of a learning problem: the Task (start state, observation, reward, success test),
-/// the System that plays the robot, and the Trajectory of an episode.
+/// the System that plays the robot, and the Trajectory of an episode. Below both the models (which
+/// observe through a Task) and the rollouts (which run a System); drops::rollout declares the same
+/// types under its own name (rollout::Task, ...), beside run_episode().
 
 #include <memory>
 #include <string>
@@ -9,7 +11,7 @@
 #include "drops/core/rng.hpp"
 #include "drops/core/types.hpp"
 
-namespace drops::rollout {
+namespace drops {
 
 /// One episode: states x_0..x_H (H + 1 rows, dim E each), actions u_0..u_{H-1} (H rows, dim U),
 /// rewards r_1..r_H (r_t computed on the state reached after step t, paper eq. 3).
@@ -99,4 +101,12 @@ inline std::unique_ptr<EpisodeSession> System::begin_episode(const VectorXd& x0)
   return std::make_unique<detail::StatelessSession>(*this, x0);
 }
 
-}  // namespace drops::rollout
+/// The problem's types as the rollouts, the algorithms and the tasks name them (the same types).
+namespace rollout {
+using drops::EpisodeSession;
+using drops::System;
+using drops::Task;
+using drops::Trajectory;
+}  // namespace rollout
+
+}  // namespace drops
