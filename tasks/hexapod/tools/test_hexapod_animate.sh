@@ -3,7 +3,7 @@
 # hexapod run, its episode replayed to a GIF, then the GIF checked: one frame per recorded state
 # (41, or fewer when Pillow merges identical frames), 800 x 600, and the robot moves between the
 # first and the last frame.
-# Usage: test_animate.sh DROPS HEXAPOD_ANIMATE SOURCE_DIR
+# Usage: test_hexapod_animate.sh DROPS HEXAPOD_ANIMATE SOURCE_DIR
 set -euo pipefail
 drops=$1 animate=$2 src=$3
 dir=$(mktemp -d)

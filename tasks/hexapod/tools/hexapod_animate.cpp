@@ -3,7 +3,7 @@
 // when DART's gui-osg component is installed (scripts/install-deps --render); needs a display, so
 // run it under Xvfb on a machine without one:
 //
-//   xvfb-run -a build/apps/tools/hexapod_animate RUN_DIR EPISODE [--output FILE.gif]
+//   xvfb-run -a build/tasks/hexapod/tools/hexapod_animate RUN_DIR EPISODE [--output FILE.gif]
 //
 // The robot is the run's "real" robot (config.yaml: hexapod.damage.*), placed at each recorded
 // state of episodes/NNN/real.csv (the measured states, noise included). The camera looks at the
@@ -30,7 +30,6 @@
 #include "drops/core/errors.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/run_directory.hpp"
-#include "drops/pendubot/plugin.hpp"
 #include "drops/hexapod/plugin.hpp"
 #include "drops/hexapod/robot.hpp"
 #include "drops/hexapod/simulator.hpp"
@@ -81,7 +80,6 @@ int main(int argc, char** argv) {
 
     drops::experiment::Registry registry;
     drops::experiment::register_builtin_algorithms(registry);
-    drops::pendubot::register_task(registry);
     hx::register_task(registry);
     const drops::experiment::Settings settings =
         drops::experiment::load_run_settings_file(registry, (run / "config.yaml").string(), {});

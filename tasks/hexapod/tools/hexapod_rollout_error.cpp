@@ -1,8 +1,8 @@
 // hexapod_rollout_error: where a hexapod model's rollout of a held-out episode drifts from what
 // the "real" robot did (docs/hexapod.md, "Why the model overrates gaits").
 //
-//   build/apps/tools/hexapod_rollout_error RUN_DIR K EPISODE REMOVED_LEG [walls RATIO SNR
-//                                          [samples N [noise step|rollout] [scale S]] [trace]]
+//   build/tasks/hexapod/tools/hexapod_rollout_error RUN_DIR K EPISODE REMOVED_LEG
+//       [walls RATIO SNR [samples N [noise step|rollout] [scale S]] [trace]]
 //
 // Trains a gp_prior model (fixed prior: REMOVED_LEG, -1 = intact) on the measured transitions of
 // episodes 1..K of RUN_DIR, then replays the recorded actions of EPISODE (K + 1 for a held-out

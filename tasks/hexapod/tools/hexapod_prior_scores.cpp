@@ -1,7 +1,8 @@
 // hexapod_prior_scores: what GP-MI sees when it chooses a prior on a hexapod run's data
 // (docs/hexapod.md, "Leg identification").
 //
-//   build/apps/tools/hexapod_prior_scores RUN_DIR K [walls RATIO SNR] [friction MU] [period P]
+//   build/tasks/hexapod/tools/hexapod_prior_scores RUN_DIR K [walls RATIO SNR] [friction MU]
+//                                                  [period P]
 //
 // For each prior of the family (intact, leg 0..5 removed), fits a gp_prior model with that prior
 // on the measured transitions of episodes 1..K of RUN_DIR (episodes/NNN/real.csv) and prints the

@@ -1,7 +1,7 @@
 // hexapod_gp_mi_replay: GP-MI's choices on a hexapod run's data, replayed episode by episode
 // (docs/results/hexapod.md, "GP-MI's candidates on equal terms").
 //
-//   build/apps/tools/hexapod_gp_mi_replay RUN_DIR K [score S] [start C] [inner N]
+//   build/tasks/hexapod/tools/hexapod_gp_mi_replay RUN_DIR K [score S] [start C] [inner N]
 //
 // One gp_mi model with the hexapod's 7 removed-leg priors learns the measured transitions of
 // episodes 1..k of RUN_DIR (episodes/NNN/real.csv) for k = 1..K in turn, as a `drops run` does

@@ -1,6 +1,6 @@
 #pragma once
 /// \file The measured transitions of a hexapod run directory (episodes/NNN/real.csv), for the
-/// diagnostic tools of apps/tools (hexapod_model_error, hexapod_prior_scores).
+/// diagnostic tools of tasks/hexapod/tools (hexapod_model_error, hexapod_prior_scores).
 
 #include <cstdio>
 #include <cstdlib>
