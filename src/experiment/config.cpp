@@ -171,7 +171,8 @@ std::vector<KeySpec> build_base_keys() {
        "from episode 2 on, search only within r * policy.bound of the best real policy, with "
        "CMA-ES's sigma0 scaled by r (r = 1: the whole box); r starts at 1, doubles after a new "
        "policy beat the best real return and halves after one that did not (TuRBO's rule; "
-       "docs/architecture.md, \"The policy search\"); empty = the task's choice: " +
+       "docs/architecture.md, \"The policy search and what drops does differently\"); empty = "
+       "the task's choice: " +
            std::string(boolean(d.trust_region.enabled)) + " unless the task says otherwise"});
   add({"optimizer.trust_region_min", "double", num(d.trust_region.min_radius), 1e-6, 1, {}, "-",
        "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
@@ -200,8 +201,8 @@ std::vector<KeySpec> build_base_keys() {
        "how a policy's rollout returns combine into its value on the model, in the search "
        "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = "
        "the expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
-       "predicted falls (docs/architecture.md, \"The policy search\"). The reported predicted "
-       "return is always the mean"});
+       "predicted falls (docs/architecture.md, \"The policy search and what drops does "
+       "differently\"). The reported predicted return is always the mean"});
   add({"rollouts.clip", "double", num(ps.rollouts.clip), 0, 100, {}, "sigma",
        "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
   add({"rollouts.batch", "int", num(ps.rollouts.batch), 1, 1024, {}, "-",

@@ -50,7 +50,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
          "reward when the body is tilted 90 degrees or more (subtracted per control step; "
          "settings.md: 10, the paper's task). The walking reward is the forward position times "
          "dt, about 0.01 per step for a good gait, so this sets how much a predicted fall weighs "
-         "against speed in the policy search (docs/results/hexapod.md, \"The reward scale\")"});
+         "against speed in the policy search (docs/decisions/hexapod-tilt-penalty.md)"});
     add({"hexapod.prior.start", "enum", "intact", 0, 0, kLegChoices, "-",
          "the prior simulator of episode 1 and of gp_prior, GP-MI's starting point: the intact "
          "robot or leg k removed (legs 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, "
@@ -60,16 +60,16 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     add({"hexapod.prior.engine", "enum", "rigid", 0, 0, {"dart", "rigid"}, "-",
          "how the prior simulator computes a physics step: rigid (a dedicated step for the "
          "prior's kinematic legs, DART's physics to round-off, the prior alone about 7 times "
-         "faster; docs/benchmarks.md) or dart (DART's world step, as before 2026-11-24)"});
+         "faster; docs/benchmarks.md) or dart (DART's world step, the engine of the first campaigns)"});
     add({"hexapod.prior.ground_friction", "double", "1", 0.05, 2, {}, "-",
          "Coulomb friction coefficient of the prior's ground (1: DART's default, that of every "
          "result before this key; the \"real\" robot's floor is 0.4; "
-         "docs/results/hexapod.md)"});
+         "docs/decisions/hexapod-prior-gap.md)"});
     add({"hexapod.prior.velocity_gain_period", "double", "3.141592653589793", 1, 1000, {}, "-",
          "the prior's velocity actuators command (q_target - q) / (period * 0.01 s), clipped to "
          "7 rad/s (settings.md: pi; 1 closes the gap in one 10 ms step, below 1 would overshoot). "
          "Larger values make slower actuators, closer to the \"real\" "
-         "robot's torque-limited servos (docs/results/hexapod.md)"});
+         "robot's torque-limited servos (docs/decisions/hexapod-prior-gap.md)"});
     add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
          "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
     add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",

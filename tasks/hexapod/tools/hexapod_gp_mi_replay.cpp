@@ -1,5 +1,5 @@
 // hexapod_gp_mi_replay: GP-MI's choices on a hexapod run's data, replayed episode by episode
-// (docs/results/hexapod.md, "GP-MI's candidates on equal terms").
+// (docs/decisions/hexapod-gp-mi-candidate-start.md).
 //
 //   build/tasks/hexapod/tools/hexapod_gp_mi_replay RUN_DIR K [score S] [start C] [inner N]
 //
