@@ -246,6 +246,68 @@ TEST(BlackDrops, ACustomModelFactoryIsUsedForEveryLearning) {
   for (std::size_t k = 0; k < plain.size(); ++k) EXPECT_EQ(custom[k].real_return, plain[k].real_return);
 }
 
+// A real system that breaks down (fault injection): at step 20 of episode 2 it returns NaN. That
+// episode ends there (reward 0 afterwards), is never solved (its frozen last rows could look like
+// success), records the step, and only its 20 finite transitions join the data; the run goes on.
+TEST(BlackDrops, ARealEpisodeThatGoesNonFiniteEndsThereIsNotSolvedAndAddsOnlyItsFiniteSteps) {
+  class Breaking final : public rollout::System {
+   public:
+    explicit Breaking(const rollout::System& inner) : inner_(inner) {}
+    VectorXd step(const VectorXd& x, const VectorXd& u, Rng& rng) const override {
+      return inner_.step(x, u, rng);
+    }
+    std::unique_ptr<rollout::EpisodeSession> begin_episode(const VectorXd& x0) const override {
+      class Session final : public rollout::EpisodeSession {
+       public:
+        Session(std::unique_ptr<rollout::EpisodeSession> s, bool breaks)
+            : s_(std::move(s)), breaks_(breaks) {}
+        VectorXd step(const VectorXd& u, Rng& rng) override {
+          VectorXd x = s_->step(u, rng);
+          if (breaks_ && ++t_ > 20) x.setConstant(std::numeric_limits<double>::quiet_NaN());
+          return x;
+        }
+
+       private:
+        std::unique_ptr<rollout::EpisodeSession> s_;
+        bool breaks_;
+        int t_ = 0;
+      };
+      return std::make_unique<Session>(inner_.begin_episode(x0), ++episodes_ == 2);
+    }
+
+   private:
+    const rollout::System& inner_;
+    mutable int episodes_ = 0;
+  };
+  ThreadLimit limit(1);
+  const auto e = fixtures::experiment({"episodes=3", "optimizer.max_evaluations=300",
+                                       "optimizer.prior_optimizations=1"});
+  const Breaking real(*e.setup.real);
+  std::vector<algo::EpisodeRecord> records;
+  std::vector<std::size_t> data_sizes;
+  algo::BlackDropsCallbacks cb;
+  cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
+  cb.on_state = [&](const algo::BlackDropsState& st) { data_sizes.push_back(st.data.size()); };
+  algo::run_black_drops(e.setup.task, real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+  ASSERT_EQ(records.size(), 3u);
+  const int H = e.setup.task->horizon();
+  EXPECT_EQ(records[0].real.nonfinite_step, -1);
+  EXPECT_EQ(records[1].real.nonfinite_step, 20);
+  EXPECT_FALSE(records[1].solved);
+  EXPECT_TRUE(records[1].real.rewards.tail(H - 20).isZero());
+  EXPECT_DOUBLE_EQ(records[1].real_return, records[1].real.rewards.head(20).sum());
+  EXPECT_TRUE(records[1].real.states.allFinite());  // frozen, never NaN in the record
+  EXPECT_EQ(data_sizes, (std::vector<std::size_t>{std::size_t(H), std::size_t(H + 20),
+                                                  std::size_t(2 * H + 20)}));
+  EXPECT_EQ(records[2].model.points, H + 20);
+  // The task's own criterion on the frozen trajectory is not consulted.
+  rollout::Trajectory frozen = records[1].real;
+  EXPECT_FALSE(rollout::episode_solved(*e.setup.task, frozen));
+  frozen.nonfinite_step = -1;
+  EXPECT_EQ(rollout::episode_solved(*e.setup.task, frozen), e.setup.task->solved(frozen));
+}
+
 TEST(BlackDrops, InvalidOptionsAreRejected) {
   algo::BlackDropsOptions o;
   o.episodes = 0;

@@ -141,6 +141,13 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   cb.on_episode = [&](const algo::EpisodeRecord& r) {
     dir->record(r);
     if (live) std::cerr << "\r\033[K";
+    // Said even with -q: a real system that breaks down is something to act on.
+    if (r.real.nonfinite_step >= 0)
+      std::cerr << fmt::format(
+          "episode {}: the real system returned a non-finite state at step {} of {}: the episode "
+          "ended there (reward 0 for the rest, not solved) and only its {} finite transitions "
+          "join the data (summary.json: nonfinite_real_step)\n",
+          r.episode, r.real.nonfinite_step + 1, r.real.actions.rows(), r.real.nonfinite_step);
     // A direct search reports the episodes that improved on the best (every other is recorded).
     if (quiet || !r.keep_trajectories) return;
     std::cerr << fmt::format(

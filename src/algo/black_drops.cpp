@@ -146,7 +146,7 @@ void run_on_real_system(const rollout::Task& task, const rollout::System& real,
   Rng rng(derive_seed(options.seed, {static_cast<std::uint64_t>(rec.episode), kRealEpisode}));
   rec.real = rollout::run_episode(task, real, *run, rng);
   rec.real_return = rec.real.total_return();
-  rec.solved = task.solved(rec.real);
+  rec.solved = rollout::episode_solved(task, rec.real);
   rec.interaction_time = rec.episode * task.horizon() * task.dt();
   for (auto& t : rec.real.transitions()) p.data.push_back(std::move(t));
   const bool improved = rec.real_return > p.best_return;
@@ -236,6 +236,10 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       planning = prior_only.get();
       rec.phi = planning ? prior_parameters.values : model->phi();
     } else {
+      if (p.data.empty())
+        throw Error("episode " + std::to_string(episode) +
+                    ": no real transition to learn from: the real system returned a non-finite "
+                    "state at the first step of every episode so far (check its parameters)");
       status(episode, "model", 0, 0);
       rec.model = model->learn(p.data, [&](const std::string&, int evals, double best) {
         status(episode, "model", evals, best);

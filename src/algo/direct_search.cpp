@@ -72,7 +72,7 @@ RunSummary DirectSearch::run(const Problem& problem, const Callbacks& callbacks,
       rec.interaction_time = rec.episode * episode_time;
       rec.real = std::move(trajectories[k]);
       rec.real_return = rec.real.total_return();
-      rec.solved = task.solved(rec.real);
+      rec.solved = rollout::episode_solved(task, rec.real);
       rec.theta = xs[k];
       rec.predicted_return = std::numeric_limits<double>::quiet_NaN();
       rec.selected = "candidate";

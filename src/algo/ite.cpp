@@ -172,7 +172,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
                         {static_cast<std::uint64_t>(episode), kIteRealEpisodeStream}));
     rec.real = rollout::run_episode(task, *problem.real, *policy, rng);
     rec.real_return = rec.real.total_return();
-    rec.solved = task.solved(rec.real);
+    rec.solved = rollout::episode_solved(task, rec.real);
     rec.interaction_time = episode * task.horizon() * task.dt();
     if (trial) {
       mboa.observe(cell, observation(rec.real_return));

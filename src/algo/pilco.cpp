@@ -864,7 +864,7 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
       d.numbers["episode"] = e;
       d.numbers["return"] = tr.total_return();
       d.numbers["predicted_return"] = plan.prediction.predicted_return;
-      d.numbers["solved"] = task->solved(tr) ? 1 : 0;
+      d.numbers["solved"] = rollout::episode_solved(*task, tr) ? 1 : 0;
       d.numbers["model_learning_s"] = plan.model_seconds;
       d.numbers["policy_optimization_s"] = plan.policy_seconds;
       phase.episodes.push_back(std::move(d));
@@ -949,7 +949,7 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     Rng rng(derive_seed(o.seed, {ep, kEpisode}));
     rec.real = rollout::run_episode(raw, real, *plan.policy, rng);
     rec.real_return = rec.real.total_return();
-    rec.solved = task->solved(rec.real);
+    rec.solved = rollout::episode_solved(*task, rec.real);
     rec.interaction_time = episode * episode_time;
     rec.theta = plan.theta;
     rec.random_policy = plan.random;

@@ -4,8 +4,9 @@ namespace drops {
 
 std::vector<Transition> Trajectory::transitions() const {
   std::vector<Transition> out;
-  out.reserve(static_cast<std::size_t>(actions.rows()));
-  for (Eigen::Index t = 0; t < actions.rows(); ++t) {
+  const Eigen::Index steps = nonfinite_step >= 0 ? nonfinite_step : actions.rows();
+  out.reserve(static_cast<std::size_t>(steps));
+  for (Eigen::Index t = 0; t < steps; ++t) {
     Transition tr;
     tr.x = states.row(t).transpose();
     tr.u = actions.row(t).transpose();

@@ -369,6 +369,9 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
                       {"phi_evaluations", rec.model.phi_evaluations},
                       {"rprop_iterations", rec.model.rprop_iterations},
                       {"trajectories", rec.keep_trajectories}};
+  // The real system returned a non-finite state: the episode ended at that step (never solved;
+  // only the finite transitions before it are data).
+  if (rec.real.nonfinite_step >= 0) e["nonfinite_real_step"] = rec.real.nonfinite_step;
   if (rec.random_policy) {
     e["policy_search"] = "random";
   } else if (!rec.policy_search.runs.empty()) {

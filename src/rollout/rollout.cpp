@@ -43,6 +43,7 @@ Trajectory run_episode(const Task& task, const System& system, const policy::Pol
       check_size("run_episode: state from System", E, next.size());
       if (!next.allFinite()) {
         alive = false;
+        tr.nonfinite_step = t;
         if (nonfinite_steps) ++*nonfinite_steps;
       } else {
         x = std::move(next);
@@ -53,6 +54,10 @@ Trajectory run_episode(const Task& task, const System& system, const policy::Pol
     tr.states.row(t + 1) = x.transpose();
   }
   return tr;
+}
+
+bool episode_solved(const Task& task, const Trajectory& trajectory) {
+  return trajectory.nonfinite_step < 0 && task.solved(trajectory);
 }
 
 namespace {

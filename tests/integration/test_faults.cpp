@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -289,5 +290,38 @@ TEST(Faults, WhatACrashLeavesAfterTheCheckpointIsRepairedAndOldRunDirectoriesRes
   write_file(old_cut / "episodes.csv", cut(read_file(old_cut / "episodes.csv"), 12) + "\n");
   EXPECT_EQ(run_drops("run --resume " + old_cut.string() + " episodes=3 -q", &err), 1);
   EXPECT_NE(err.find(old_cut.string() + "/episodes.csv: row 2"), std::string::npos) << err;
+  fs::remove_all(out);
+}
+
+// A "real" system that goes non-finite (issue 43): the pendubot with 1 cm links blows up within an
+// episode. Each episode ends at its non-finite step, says so on stderr even with -q, records
+// nonfinite_real_step in summary.json, and none is solved (the frozen state is not a success);
+// whatever the run then does, it never reports the task solved and keeps what it recorded.
+TEST(Faults, ARealSystemThatGoesNonFiniteIsCountedAndNeverSolved) {
+  const fs::path out = fresh_dir("faults", "nonfinite-real");
+  std::string err;
+  const int code = run_drops("run episodes=3 threads=1 optimizer.max_evaluations=200 "
+                             "rollouts.predicted=2 optimizer.reevaluation_rollouts=4 "
+                             "system.l1=0.01 system.l2=0.01 -q --output " + out.string() +
+                                 " --name run",
+                             &err);
+  EXPECT_NE(err.find("the real system returned a non-finite state at step"), std::string::npos)
+      << err;
+  EXPECT_EQ(err.find("first solved"), std::string::npos) << err;
+  const auto s = nlohmann::json::parse(read_file(out / "run" / "summary.json"));
+  ASSERT_FALSE(s["episodes"].empty()) << err;
+  for (const auto& ep : s["episodes"]) {
+    EXPECT_FALSE(ep["solved"].get<bool>()) << ep.dump();
+    ASSERT_TRUE(ep.contains("nonfinite_real_step")) << ep.dump();
+    EXPECT_GE(ep["nonfinite_real_step"].get<int>(), 0);
+  }
+  EXPECT_FALSE(s.contains("first_solved_episode") && s["first_solved_episode"].is_number() &&
+               s["first_solved_episode"].get<int>() > 0)
+      << s.dump();
+  // Every episode in summary.json is also a row of episodes.csv (nothing recorded is lost).
+  const std::string csv = read_file(out / "run" / "episodes.csv");
+  EXPECT_EQ(static_cast<std::size_t>(std::count(csv.begin(), csv.end(), '\n')),
+            s["episodes"].size() + 1);
+  std::printf("[info] exit code %d, %zu episodes recorded\n", code, s["episodes"].size());
   fs::remove_all(out);
 }

@@ -66,9 +66,11 @@ using BlackDropsSummary = RunSummary;
 /// task, real system and policy prototype are borrowed for the call. prior may be null only for
 /// model type gp. With `resume` (a state from on_state of a run with the same options), the run
 /// continues after resume->episodes_done; the summary then covers the whole run but `seconds`
-/// only this call. Throws InvalidArgument on invalid options, mismatched dimensions or a resume
-/// state that does not fit; exceptions from callbacks propagate. Not thread-safe (uses
-/// parallel_for internally).
+/// only this call. A real episode whose system returns a non-finite state ends at that step
+/// (Trajectory::nonfinite_step), is not solved and adds only its finite transitions to the data.
+/// Throws InvalidArgument on invalid options, mismatched dimensions or a resume state that does
+/// not fit; Error when a model is to be learned and no finite real transition exists;
+/// exceptions from callbacks propagate. Not thread-safe (uses parallel_for internally).
 BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const rollout::System& real, const policy::Policy& policy,
                                   std::shared_ptr<const model::MeanFunction> prior,

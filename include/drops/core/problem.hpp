@@ -19,9 +19,13 @@ struct Trajectory {
   MatrixXd states;   ///< (H + 1) x E
   MatrixXd actions;  ///< H x U
   VectorXd rewards;  ///< H
+  /// The step t at which the system returned a non-finite state x_{t+1} (-1: none). The episode
+  /// ended there: later rows repeat the last finite state, with action 0 and reward 0.
+  int nonfinite_step = -1;
   /// Sum of the rewards.
   double total_return() const { return rewards.sum(); }
-  /// The recorded transitions (x_t, u_t, x_{t+1} - x_t), t = 0..H-1.
+  /// The recorded transitions (x_t, u_t, x_{t+1} - x_t) of the steps whose next state is finite:
+  /// t = 0..H-1, or t < nonfinite_step when the episode ended early.
   std::vector<Transition> transitions() const;
 };
 

@@ -15,10 +15,16 @@ namespace drops::rollout {
 /// Runs one episode of task.horizon() steps from task.initial_state() on `system` with `policy`,
 /// through one session s = system.begin_episode(x_0) (the stateless default for model systems):
 /// u_t = pi(observe(x_t), t * dt), x_{t+1} = s.step(u_t), r_t = reward(x_{t+1}).
-/// A non-finite state ends the episode early: the remaining states repeat the last finite one and
-/// earn reward 0, and *nonfinite_steps (if given) is incremented. Thread-safe if system is.
+/// A non-finite state ends the episode early (Trajectory::nonfinite_step): the remaining states
+/// repeat the last finite one and earn reward 0, and *nonfinite_steps (if given) is incremented.
+/// Thread-safe if system is.
 Trajectory run_episode(const Task& task, const System& system, const policy::Policy& policy,
                        Rng& rng, long* nonfinite_steps = nullptr);
+
+/// Whether an episode solved the task: task.solved(trajectory), and never an episode that the
+/// system ended with a non-finite state (its last rows repeat a frozen state, which the task's
+/// criterion could take for success). Thread-safe.
+bool episode_solved(const Task& task, const Trajectory& trajectory);
 
 /// How the returns of a policy's Monte-Carlo rollouts combine into its value on the model.
 enum class ReturnStatistic {
