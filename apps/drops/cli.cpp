@@ -28,6 +28,17 @@ int run(int argc, char** argv, const experiment::Registry& registry, const std::
   } catch (const CLI::Success& e) {
     return app.exit(e);  // --help, --version
   } catch (const CLI::ParseError& e) {
+    // A word that names no subcommand (`drops foo`): CLI11 would only say that one is required.
+    if (app.get_subcommands().empty())
+      for (const auto& word : app.remaining())
+        if (!word.empty() && word[0] != '-') {
+          std::string names;
+          for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+            names += (names.empty() ? "" : ", ") + sub->get_name();
+          std::cerr << program << ": unknown subcommand '" << word << "' (available: " << names
+                    << ")\nRun with --help for more information.\n";
+          return 2;
+        }
     app.exit(e);  // prints the usage error
     return 2;     // usage errors are configuration errors (CLI11's own codes are 100+)
   }

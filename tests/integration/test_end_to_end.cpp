@@ -202,6 +202,19 @@ TEST(EndToEnd, BadConfigGivesAnActionableErrorAndWritesNothing) {
   fs::remove_all(out);
 }
 
+// A word that names no subcommand is named in the error, with the subcommands there are (issue 43).
+TEST(EndToEnd, UnknownSubcommandIsNamedWithTheAvailableOnes) {
+  std::string err;
+  EXPECT_EQ(run_drops("foo", &err), 2);
+  EXPECT_NE(err.find("drops: unknown subcommand 'foo' (available: run, config, campaign, report, "
+                     "plot, direct)"),
+            std::string::npos)
+      << err;
+  // Without a word, CLI11's own message stays.
+  EXPECT_EQ(run_drops("", &err), 2);
+  EXPECT_NE(err.find("A subcommand is required"), std::string::npos) << err;
+}
+
 namespace {
 
 /// Starts `drops run <args> --output out --name run` in the background, its stderr to `err`.
