@@ -279,6 +279,14 @@ void add_config_command(CLI::App& app, Action& action, const experiment::Registr
   config->callback([&action, &registry, args, markdown] {
     action = [&registry, args, markdown] {
       if (*markdown) {
+        // The schema is the same whatever the configuration: a file or key=value given with it
+        // would be silently ignored.
+        if (!args->empty()) {
+          std::string given;
+          for (const auto& a : *args) given += (given.empty() ? "'" : " '") + a + "'";
+          throw ConfigError("--markdown prints the schema of every task and takes no config file "
+                            "or key=value; drop " + given);
+        }
         std::cout << experiment::schema_markdown(registry);
         return 0;
       }

@@ -33,6 +33,7 @@ using drops::cli_test::read_file;
 using drops::cli_test::read_json;
 using drops::cli_test::run_drops;
 using drops::cli_test::spawn_drops;
+using drops::cli_test::Stdout;
 
 namespace {
 
@@ -213,6 +214,16 @@ TEST(EndToEnd, UnknownSubcommandIsNamedWithTheAvailableOnes) {
   // Without a word, CLI11's own message stays.
   EXPECT_EQ(run_drops("", &err), 2);
   EXPECT_NE(err.find("A subcommand is required"), std::string::npos) << err;
+}
+
+// `drops config --markdown` prints the schema, which no configuration changes: a file or key=value
+// given with it is refused, naming them, instead of being ignored (issue 43).
+TEST(EndToEnd, ConfigMarkdownRefusesTheArgumentsItWouldIgnore) {
+  std::string err;
+  EXPECT_EQ(run_drops("config --markdown nosuch=1 /nonexistent.yaml", &err, Stdout::kDiscard), 2);
+  EXPECT_NE(err.find("--markdown"), std::string::npos) << err;
+  EXPECT_NE(err.find("'nosuch=1' '/nonexistent.yaml'"), std::string::npos) << err;
+  EXPECT_EQ(run_drops("config --markdown", &err, Stdout::kDiscard), 0) << err;
 }
 
 namespace {
