@@ -5,6 +5,7 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
+#include "drops/core/errors.hpp"
 
 namespace drops::app {
 
@@ -34,7 +35,17 @@ int direct_main(const experiment::Registry& registry, const DirectArgs& a) {
   if (!a.start.empty()) overrides.push_back("direct.start=" + a.start);
   if (!a.output.empty()) overrides.push_back("output=" + a.output);
   if (!a.name.empty()) overrides.push_back("name=" + a.name);
-  return run_experiment(registry, settings_from(registry, file, overrides), file, "", a.quiet);
+  experiment::Settings settings;
+  try {
+    settings = settings_from(registry, file, overrides);
+  } catch (const ConfigError& e) {
+    // The range of --evaluations is optimizer.max_evaluations's: name the option that set it.
+    const std::string what = e.what();
+    if (a.evaluations && what.find("'optimizer.max_evaluations'") != std::string::npos)
+      throw ConfigError("--evaluations " + std::to_string(*a.evaluations) + " sets " + what);
+    throw;
+  }
+  return run_experiment(registry, settings, file, "", a.quiet);
 }
 
 }  // namespace
@@ -51,8 +62,7 @@ void add_direct_command(CLI::App& app, Action& action, const experiment::Registr
   cmd->add_option("args", args->args,
                   "[CONFIG.yaml] [key=value ...] (see 'drops config --markdown')");
   cmd->add_option("--evaluations", args->evaluations,
-                  "real episodes at most (same as optimizer.max_evaluations=N)")
-      ->check(CLI::PositiveNumber);
+                  "real episodes at most (same as optimizer.max_evaluations=N)");
   cmd->add_option("--start", args->start,
                   "start point: a file of policy parameters, one per line (e.g. a run's "
                   "episodes/NNN/policy.csv); evaluated first and kept if the search does not beat "

@@ -157,3 +157,21 @@ TEST(Direct, RefusesABadConfigAndAnExistingResultDirectory) {
   EXPECT_FALSE(fs::exists(out / "b"));  // refused before anything was written
   fs::remove_all(out);
 }
+
+// --evaluations sets optimizer.max_evaluations: a count below its range (0, a negative one) is
+// refused with that range and the option's name, not with CLI11's bound of a double (issue 43).
+TEST(Direct, EvaluationsOutsideTheRangeAreRefusedNamingTheOptionAndTheRange) {
+  const fs::path out = fresh_dir("direct", "evaluations");
+  for (const std::string n : {"0", "-3", "5"}) {
+    SCOPED_TRACE(n);
+    std::string err;
+    EXPECT_EQ(run_drops("direct --evaluations " + n + " --output " + out.string() + " -q", &err), 2);
+    EXPECT_NE(err.find("--evaluations " + n + " sets config key 'optimizer.max_evaluations'"),
+              std::string::npos)
+        << err;
+    EXPECT_NE(err.find("allowed [10, 1e+08]"), std::string::npos) << err;
+    EXPECT_LT(err.size(), 200u) << err;
+  }
+  EXPECT_TRUE(fs::is_empty(out));
+  fs::remove_all(out);
+}
