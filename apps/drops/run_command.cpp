@@ -69,14 +69,20 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   }
   const int episodes = e.runner->episodes();
   const bool live = !quiet && isatty(STDERR_FILENO);
-  std::cerr << fmt::format("drops run: {} with {}{}, {} episodes, seed {}, {} threads\n", e.task,
-                           e.variant,
-                           e.uses_prior ? fmt::format(" (prior {})", e.setup.prior_label) : "",
-                           episodes, e.seed, e.threads ? e.threads : hardware_threads());
-  std::cerr << "run directory: " << dir->path().string() << "\n";
+  // -q: only the final line (done, interrupted or nothing to do; an error is its own line).
+  if (!quiet) {
+    std::cerr << fmt::format("drops run: {} with {}{}, {} episodes, seed {}, {} threads\n",
+                             e.task, e.variant,
+                             e.uses_prior ? fmt::format(" (prior {})", e.setup.prior_label) : "",
+                             episodes, e.seed, e.threads ? e.threads : hardware_threads());
+    std::cerr << "run directory: " << dir->path().string() << "\n";
+  }
   if (resuming) {
-    for (const auto& r : dir->repairs()) std::cerr << "resume: " << r << "\n";
-    std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done, episodes);
+    if (!quiet) {
+      for (const auto& r : dir->repairs()) std::cerr << "resume: " << r << "\n";
+      std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done,
+                               episodes);
+    }
     if (state.episodes_done >= episodes) {
       algo::RunSummary done;
       done.episodes_done = state.episodes_done;
@@ -187,21 +193,22 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   }
   if (live) std::cerr << "\r\033[K";
   dir->finish(summary, summary.interrupted ? "interrupted" : "complete");
-  std::cerr << fmt::format("{}: {}; results in {}\n",
-                           summary.interrupted ? "interrupted" : "done", summary.BriefReport(),
-                           dir->path().string());
+  std::string hint;  // what to do with an interrupted run
   if (summary.interrupted) {
-    // The hint only when --resume will accept the directory: a checkpoint exists.
     if (e.runner->resumable() && dir->has_checkpoint())
-      std::cerr << "continue it with: drops run --resume " << dir->path().string() << "\n";
+      hint = "continue it with: drops run --resume " + dir->path().string();
     else if (e.runner->resumable())
-      std::cerr << "no episode finished, so there is nothing to continue: start the run again "
-                   "(and remove " << dir->path().string() << ")\n";
+      hint = "no episode finished, so there is nothing to continue: start the run again (and "
+             "remove " + dir->path().string() + ")";
     else
-      std::cerr << "algorithm '" << e.algorithm << "' cannot be resumed: start it again (its "
-                << summary.episodes_done << " recorded episodes stay in " << dir->path().string()
-                << ")\n";
+      hint = "algorithm '" + e.algorithm + "' cannot be resumed: start it again (its " +
+             std::to_string(summary.episodes_done) + " recorded episodes stay in " +
+             dir->path().string() + ")";
   }
+  std::cerr << fmt::format("{}: {}; results in {}", summary.interrupted ? "interrupted" : "done",
+                           summary.BriefReport(), dir->path().string());
+  // With -q the hint goes on the final line, the only one.
+  std::cerr << (hint.empty() ? "" : quiet ? "; " + hint : "\n" + hint) << "\n";
   return summary.interrupted ? 130 : 0;
 }
 

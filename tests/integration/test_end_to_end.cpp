@@ -226,6 +226,30 @@ TEST(EndToEnd, ConfigMarkdownRefusesTheArgumentsItWouldIgnore) {
   EXPECT_EQ(run_drops("config --markdown", &err, Stdout::kDiscard), 0) << err;
 }
 
+// -q prints what its help says, "only the final line on stderr": a run's "done: ..." line, a
+// resumed complete run's "nothing to do" line, a direct search's "done: ..." line (issue 43).
+TEST(EndToEnd, QuietPrintsOnlyTheFinalLine) {
+  const fs::path out = fresh_dir("e2e", "quiet");
+  const std::string tiny =
+      " episodes=1 optimizer.max_evaluations=40 optimizer.prior_optimizations=1"
+      " rollouts.predicted=2 optimizer.reevaluation_rollouts=2 threads=1 -q";
+  const auto one_line_starting = [](const std::string& text, const std::string& start) {
+    EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
+    EXPECT_EQ(text.rfind(start, 0), 0u) << text;
+  };
+  std::string err;
+  ASSERT_EQ(run_drops("run" + tiny + " --output " + out.string() + " --name run", &err), 0) << err;
+  one_line_starting(err, "done: 1 episodes");
+  ASSERT_EQ(run_drops("run --resume " + (out / "run").string() + " -q", &err), 0) << err;
+  one_line_starting(err, "nothing to do");
+  ASSERT_EQ(run_drops("direct --evaluations 10 -q --output " + out.string() + " --name direct",
+                      &err),
+            0)
+      << err;
+  one_line_starting(err, "done: ");
+  fs::remove_all(out);
+}
+
 namespace {
 
 /// Starts `drops run <args> --output out --name run` in the background, its stderr to `err`.
