@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <ctime>
@@ -587,6 +588,27 @@ int complete_lines(const std::string& text, int lines, std::size_t* end) {
   return found;
 }
 
+/// Finished episodes recorded in run directory `dir`: the whole rows of episodes.csv after its
+/// header, or the entries of summary.json's "episodes" when it lists more (0 when neither file
+/// holds one; a row cut mid-line by a crash is not a finished episode).
+int recorded_episodes(const fs::path& dir) {
+  int n = 0;
+  if (fs::exists(dir / "episodes.csv")) {
+    std::size_t end = 0;
+    n = std::max(complete_lines(read_text(dir / "episodes.csv"), INT_MAX, &end) - 1, 0);
+  }
+  if (fs::exists(dir / "summary.json")) {
+    try {
+      const auto j = nlohmann::json::parse(read_text(dir / "summary.json"));
+      if (j.is_object() && j.contains("episodes") && j["episodes"].is_array())
+        n = std::max(n, static_cast<int>(j["episodes"].size()));
+    } catch (const nlohmann::json::exception&) {
+      // unreadable: episodes.csv alone says what was recorded
+    }
+  }
+  return n;
+}
+
 std::vector<std::string> split_cells(const std::string& line) {
   std::vector<std::string> cells;
   std::stringstream ss(line);
@@ -616,6 +638,21 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     throw Error("run " + dir.string() + ": algorithm '" + e.algorithm +
                 "' cannot be resumed; start it again");
   const fs::path cp_path = dir / "checkpoint.json";
+  if (!fs::exists(cp_path)) {
+    // No checkpoint although episodes are recorded: the file was deleted, and the recorded
+    // episodes cannot be continued without the state it held. They are kept: the directory is
+    // left as it is.
+    const int recorded = recorded_episodes(dir);
+    if (recorded > 0)
+      throw RunDirectoryDamaged(fmt::format(
+          "{} is missing, although {} recorded in {}: the run cannot be continued without it "
+          "(it holds the algorithm's state after the last finished episode); the recorded "
+          "episodes are kept as they are. Restore checkpoint.json to continue the run, or start "
+          "a new run under another name",
+          cp_path.string(),
+          recorded == 1 ? std::string("1 episode is") : fmt::format("{} episodes are", recorded),
+          dir.string()));
+  }
   const nlohmann::json cp = read_checkpoint_json(dir);
   *state = state_from_json(cp, cp_path);
   const std::string algorithm = cp.value("algorithm", std::string("black_drops"));

@@ -191,10 +191,22 @@ TEST(Resume, RefusesWhatItCannotContinue) {
     EXPECT_NE(err.find("in use"), std::string::npos) << err;
     ::close(fd);
   }
-  // No episode ever finished: nothing to continue.
+  // checkpoint.json deleted from a finished run: its recorded episode cannot be continued, and is
+  // not started over (issue 43: the message said "no episode finished").
   fs::remove(out / "one" / "checkpoint.json");
+  const std::string csv = read_file(out / "one" / "episodes.csv");
+  const std::string summary = read_file(out / "one" / "summary.json");
   EXPECT_EQ(run_drops("run --resume " + (out / "one").string() + " episodes=2", &err), 1);
-  EXPECT_NE(err.find("no checkpoint.json"), std::string::npos) << err;
+  EXPECT_NE(err.find((out / "one" / "checkpoint.json").string() +
+                     " is missing, although 1 episode is recorded in " + (out / "one").string() +
+                     ": the run cannot be continued"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("the recorded episodes are kept"), std::string::npos) << err;
+  EXPECT_EQ(err.find("no episode finished"), std::string::npos) << err;
+  EXPECT_EQ(read_file(out / "one" / "episodes.csv"), csv);
+  EXPECT_EQ(read_file(out / "one" / "summary.json"), summary);
+  EXPECT_TRUE(fs::exists(out / "one" / "episodes" / "001" / "real.csv"));
   fs::remove_all(out);
 }
 

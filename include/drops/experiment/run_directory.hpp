@@ -111,11 +111,12 @@ class RunDirectory {
   /// episodes are removed: the checkpoint does not cover them and the resumed run writes them
   /// again.
   ///
-  /// Throws drops::Error when DIR is not a run directory or there is no checkpoint.json (no episode
-  /// finished: start the run again); RunDirectoryBusy when another process holds the lock;
-  /// RunDirectoryDamaged naming the file when a check fails; ConfigError when the configuration
-  /// differs from the one the run was started with (naming the key) or plans fewer episodes than
-  /// are done.
+  /// Throws drops::Error when DIR is not a run directory or there is no checkpoint.json and no
+  /// episode finished (start the run again); RunDirectoryBusy when another process holds the
+  /// lock; RunDirectoryDamaged naming the file when a check fails, or when checkpoint.json is
+  /// missing although episodes are recorded (they are kept, the directory is not changed);
+  /// ConfigError when the configuration differs from the one the run was started with (naming the
+  /// key) or plans fewer episodes than are done.
   static std::unique_ptr<RunDirectory> reopen(const std::filesystem::path& dir,
                                               const Experiment& experiment,
                                               const std::string& config_yaml,
