@@ -80,8 +80,9 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   if (resuming) {
     if (!quiet) {
       for (const auto& r : dir->repairs()) std::cerr << "resume: " << r << "\n";
-      std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done,
-                               episodes);
+      if (dir->has_checkpoint())
+        std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done,
+                                 episodes);
     }
     if (state.episodes_done >= episodes) {
       algo::RunSummary done;
@@ -185,7 +186,10 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
 
   algo::RunSummary summary;
   try {
-    summary = e.runner->run(e.setup.problem(), cb, resuming ? &state : nullptr);
+    // A directory reopened without a checkpoint (no episode had finished) starts from the
+    // beginning.
+    const bool continuing = resuming && dir->has_checkpoint();
+    summary = e.runner->run(e.setup.problem(), cb, continuing ? &state : nullptr);
   } catch (const std::exception& ex) {
     if (live) std::cerr << "\r\033[K";
     dir->finish(summary, "failed", ex.what());
@@ -197,9 +201,9 @@ int run_experiment(const experiment::Registry& registry, const experiment::Setti
   if (summary.interrupted) {
     if (e.runner->resumable() && dir->has_checkpoint())
       hint = "continue it with: drops run --resume " + dir->path().string();
-    else if (e.runner->resumable())
-      hint = "no episode finished, so there is nothing to continue: start the run again (and "
-             "remove " + dir->path().string() + ")";
+    else if (e.runner->resumable())  // --resume starts it from its beginning, in place
+      hint = "no episode finished, so nothing was recorded: start it again with: drops run "
+             "--resume " + dir->path().string();
     else
       hint = "algorithm '" + e.algorithm + "' cannot be resumed: start it again (its " +
              std::to_string(summary.episodes_done) + " recorded episodes stay in " +
@@ -269,7 +273,8 @@ void add_run_command(CLI::App& app, Action& action, const experiment::Registry& 
   run->add_option("--name", args->name, "name of the run directory");
   run->add_option("--resume", args->resume,
                   "continue the interrupted run in this directory from its last finished episode "
-                  "(same results as an uninterrupted run; episodes=N may extend it)");
+                  "(same results as an uninterrupted run; episodes=N may extend it); a run with "
+                  "no finished episode starts from its beginning there");
   run->add_flag("-q,--quiet", args->quiet, "only the final line on stderr");
   run->callback([&action, &registry, args] {
     action = [&registry, args] { return run_main(registry, *args); };

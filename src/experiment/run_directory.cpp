@@ -302,6 +302,19 @@ void RunDirectory::start(const std::string& config_yaml) {
   write_summary("running");
 }
 
+void RunDirectory::restart(const std::string& config_yaml) {
+  // What a first episode that did not finish may have left: its files (written before its row),
+  // IT&E's archive and its progress (built on the prior only), the summary of the session.
+  for (const char* f : {"episodes.csv", "summary.json", "archive.csv", "archive_progress.csv"})
+    fs::remove(dir_ / f);
+  std::error_code ec;
+  fs::remove_all(dir_ / "episodes", ec);
+  if (ec) throw Error("cannot remove " + (dir_ / "episodes").string() + ": " + ec.message());
+  start(config_yaml);
+  repairs_.push_back("no checkpoint.json and no finished episode: nothing was recorded, so the "
+                     "run starts from its beginning (config.yaml) in this directory");
+}
+
 void RunDirectory::append_row(const std::string& row) {
   episodes_csv_ << row;
   episodes_csv_.flush();
@@ -468,10 +481,7 @@ namespace {
 /// checkpoint.json parsed, its format and (format 2) its checksum checked.
 nlohmann::json read_checkpoint_json(const fs::path& dir) {
   const fs::path cp = dir / "checkpoint.json";
-  if (!fs::exists(cp))
-    throw Error("run " + dir.string() +
-                " has no checkpoint.json: no episode finished, so there is nothing to continue; "
-                "remove the directory and start the run again");
+  if (!fs::exists(cp)) throw Error("run " + dir.string() + " has no checkpoint.json");
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(read_text(cp));
@@ -639,9 +649,9 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
                 "' cannot be resumed; start it again");
   const fs::path cp_path = dir / "checkpoint.json";
   if (!fs::exists(cp_path)) {
-    // No checkpoint although episodes are recorded: the file was deleted, and the recorded
-    // episodes cannot be continued without the state it held. They are kept: the directory is
-    // left as it is.
+    // No checkpoint: either no episode finished (the run was stopped or killed before its first
+    // checkpoint), so nothing was recorded and the run starts from its beginning here; or the file was deleted, and the recorded episodes cannot be continued without the
+    // state it held. They are kept: the directory is left as it is.
     const int recorded = recorded_episodes(dir);
     if (recorded > 0)
       throw RunDirectoryDamaged(fmt::format(
@@ -652,6 +662,8 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
           cp_path.string(),
           recorded == 1 ? std::string("1 episode is") : fmt::format("{} episodes are", recorded),
           dir.string()));
+    rd->restart(config_yaml);
+    return rd;
   }
   const nlohmann::json cp = read_checkpoint_json(dir);
   *state = state_from_json(cp, cp_path);

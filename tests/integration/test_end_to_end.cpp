@@ -292,9 +292,10 @@ TEST(EndToEnd, InterruptAndTerminateKeepEveryFinishedEpisode) {
   }
 }
 
-// Interrupted during episode 1 (the policy search on the prior), a run has no checkpoint: it says
-// to start again and does not offer a --resume that would be refused.
-TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
+// Interrupted during episode 1 (the policy search on the prior), a run has no checkpoint and
+// nothing recorded: it says so, and --resume starts it from its beginning in the same directory
+// (issue 43; before, the directory had to be removed by hand).
+TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgainWithResume) {
   const fs::path out = fresh_dir("e2e", "first");
   const fs::path err = out / "stderr";
   const pid_t pid = spawn_run("optimizer.max_evaluations=200000", out, err);
@@ -307,16 +308,29 @@ TEST(EndToEnd, InterruptDuringTheFirstEpisodeSaysToStartAgain) {
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 130);
   const std::string text = read_file(err);
-  EXPECT_EQ(text.find("--resume"), std::string::npos) << text;
-  EXPECT_NE(text.find("no episode finished, so there is nothing to continue: start the run again"),
+  EXPECT_NE(text.find("no episode finished, so nothing was recorded: start it again with: drops "
+                      "run --resume " + (out / "run").string()),
             std::string::npos)
       << text;
   EXPECT_FALSE(fs::exists(out / "run" / "checkpoint.json"));
   EXPECT_EQ(read_json(out / "run" / "summary.json")["status"], "interrupted");
-  // ... and --resume, tried anyway, says the same.
+  // The run starts from its config.yaml; a smaller budget there keeps the test short.
+  const fs::path config = out / "run" / "config.yaml";
+  std::string yaml = read_file(config);
+  const std::string budget = "\n  max_evaluations: 200000\n";
+  ASSERT_NE(yaml.find(budget), std::string::npos) << yaml;
+  yaml.replace(yaml.find(budget), budget.size(), "\n  max_evaluations: 40\n");
+  drops::cli_test::write_file(config, yaml);
   std::string resume_err;
-  EXPECT_EQ(run_drops("run --resume " + (out / "run").string(), &resume_err), 1);
-  EXPECT_NE(resume_err.find("no checkpoint.json"), std::string::npos) << resume_err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "run").string() + " episodes=1", &resume_err), 0)
+      << resume_err;
+  EXPECT_NE(resume_err.find("nothing was recorded, so the run starts from its beginning"),
+            std::string::npos)
+      << resume_err;
+  const auto summary = read_json(out / "run" / "summary.json");
+  EXPECT_EQ(summary["status"], "complete");
+  EXPECT_EQ(summary["episodes_done"], 1);
+  EXPECT_EQ(count_lines(out / "run" / "episodes.csv"), 2);
   fs::remove_all(out);
 }
 

@@ -210,6 +210,42 @@ TEST(Resume, RefusesWhatItCannotContinue) {
   fs::remove_all(out);
 }
 
+// A run killed (SIGKILL) during its first episode recorded nothing and has no checkpoint:
+// --resume starts it from its beginning in the same directory (from its config.yaml), and it ends
+// with the episodes of a run that was never killed (issue 43).
+TEST(Resume, RunKilledDuringItsFirstEpisodeStartsFromItsBeginning) {
+  const fs::path out = fresh_dir("resume", "first");
+  ASSERT_EQ(run_drops(kRun + " episodes=2 --output " + out.string() + " --name full -q"), 0);
+  // The same run with a budget that keeps episode 1 busy until it is killed.
+  const pid_t pid = spawn_drops(kRun + " episodes=2 optimizer.max_evaluations=200000 --output " +
+                                out.string() + " --name killed -q");
+  ASSERT_GE(pid, 0);
+  const fs::path dir = out / "killed";
+  for (int i = 0; i < 600 && !fs::exists(dir / "summary.json"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_FALSE(fs::exists(dir / "checkpoint.json"));
+  ASSERT_EQ(read_file(dir / "episodes.csv").find("\n1,"), std::string::npos)
+      << "episode 1 finished before the kill";
+  EXPECT_EQ(read_json(dir / "summary.json")["status"], "running");
+  // config.yaml is what the run starts from: that of the uninterrupted run, under this name.
+  std::string yaml = read_file(out / "full" / "config.yaml");
+  ASSERT_NE(yaml.find("\nname: full\n"), std::string::npos) << yaml;
+  yaml.replace(yaml.find("\nname: full\n"), 12, "\nname: killed\n");
+  drops::cli_test::write_file(dir / "config.yaml", yaml);
+  std::string err;
+  ASSERT_EQ(run_drops("run --resume " + dir.string(), &err), 0) << err;
+  EXPECT_NE(err.find("resume: no checkpoint.json and no finished episode: nothing was recorded"),
+            std::string::npos)
+      << err;
+  expect_same_episodes(out / "full", dir, 2);
+  EXPECT_EQ(read_file(dir / "config.yaml"), yaml);
+  fs::remove_all(out);
+}
+
 // IT&E killed in the middle of its archive's generation: the archive so far (archive.csv, with its
 // MAP-Elites cursor) and checkpoint.json (no episode yet) continue it to the same archive and the
 // same trials as an uninterrupted run.

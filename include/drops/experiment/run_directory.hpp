@@ -111,12 +111,17 @@ class RunDirectory {
   /// episodes are removed: the checkpoint does not cover them and the resumed run writes them
   /// again.
   ///
-  /// Throws drops::Error when DIR is not a run directory or there is no checkpoint.json and no
-  /// episode finished (start the run again); RunDirectoryBusy when another process holds the
-  /// lock; RunDirectoryDamaged naming the file when a check fails, or when checkpoint.json is
-  /// missing although episodes are recorded (they are kept, the directory is not changed);
-  /// ConfigError when the configuration differs from the one the run was started with (naming the
-  /// key) or plans fewer episodes than are done.
+  /// Without checkpoint.json and without a finished episode (a run stopped or killed during its
+  /// first one: nothing was recorded), the run starts from its beginning in DIR: what the session
+  /// left (episodes.csv, summary.json, episodes/, archive.csv, archive_progress.csv) is removed,
+  /// *state is left untouched and has_checkpoint() is false (the caller runs the algorithm from
+  /// the start); repairs() says so.
+  ///
+  /// Throws drops::Error when DIR is not a run directory; RunDirectoryBusy when another process
+  /// holds the lock; RunDirectoryDamaged naming the file when a check fails, or when
+  /// checkpoint.json is missing although episodes are recorded (they are kept, the directory is
+  /// not changed); ConfigError when the configuration differs from the one the run was started
+  /// with (naming the key) or plans fewer episodes than are done.
   static std::unique_ptr<RunDirectory> reopen(const std::filesystem::path& dir,
                                               const Experiment& experiment,
                                               const std::string& config_yaml,
@@ -158,6 +163,8 @@ class RunDirectory {
   RunDirectory(const std::filesystem::path& dir, const Experiment& experiment);
   void lock();
   void start(const std::string& config_yaml);
+  /// reopen() of a directory where no episode finished: what a session left goes, then start().
+  void restart(const std::string& config_yaml);
   void append_row(const std::string& row);
   void write_summary(const std::string& status);
   int lock_fd_ = -1;
