@@ -361,8 +361,13 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   }
   const std::vector<double> metrics = setup.metrics ? setup.metrics(rec) : std::vector<double>{};
 
-  std::string row = fmt::format("{},{:.3f},{:.6f},{:.6f},{},{},{:.3f},{:.3f},{}", rec.episode,
-                                rec.interaction_time, rec.real_return, rec.predicted_return,
+  // No model predicted the episode (a random first policy, a direct search): an empty field, which
+  // CSV readers take as missing (summary.json holds null).
+  const std::string predicted = std::isfinite(rec.predicted_return)
+                                    ? fmt::format("{:.6f}", rec.predicted_return)
+                                    : std::string();
+  std::string row = fmt::format("{},{:.3f},{:.6f},{},{},{},{:.3f},{:.3f},{}", rec.episode,
+                                rec.interaction_time, rec.real_return, predicted,
                                 rec.solved ? 1 : 0, phi_text(rec.phi), rec.model_seconds,
                                 rec.policy_seconds, rec.evaluations);
   for (double m : metrics) row += fmt::format(",{:.6g}", m);
@@ -650,8 +655,9 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
   const fs::path cp_path = dir / "checkpoint.json";
   if (!fs::exists(cp_path)) {
     // No checkpoint: either no episode finished (the run was stopped or killed before its first
-    // checkpoint), so nothing was recorded and the run starts from its beginning here; or the file was deleted, and the recorded episodes cannot be continued without the
-    // state it held. They are kept: the directory is left as it is.
+    // checkpoint), so nothing was recorded and the run starts from its beginning here; or the
+    // file was deleted, and the recorded episodes cannot be continued without the state it held.
+    // They are kept: the directory is left as it is.
     const int recorded = recorded_episodes(dir);
     if (recorded > 0)
       throw RunDirectoryDamaged(fmt::format(

@@ -165,7 +165,8 @@ TEST(Direct, EvaluationsOutsideTheRangeAreRefusedNamingTheOptionAndTheRange) {
   for (const std::string n : {"0", "-3", "5"}) {
     SCOPED_TRACE(n);
     std::string err;
-    EXPECT_EQ(run_drops("direct --evaluations " + n + " --output " + out.string() + " -q", &err), 2);
+    EXPECT_EQ(run_drops("direct --evaluations " + n + " --output " + out.string() + " -q", &err),
+              2);
     EXPECT_NE(err.find("--evaluations " + n + " sets config key 'optimizer.max_evaluations'"),
               std::string::npos)
         << err;
