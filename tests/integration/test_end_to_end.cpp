@@ -250,6 +250,53 @@ TEST(EndToEnd, QuietPrintsOnlyTheFinalLine) {
   fs::remove_all(out);
 }
 
+// Episode 1 of the gp variant (a random policy) has no predicted return: its field in episodes.csv
+// is empty, not "nan" (summary.json holds null), and drops report and drops plot (with
+// python/drops_plot.py when matplotlib is there) read the run (issue 43).
+TEST(EndToEnd, AnEpisodeNoModelPredictedHasAnEmptyPredictedReturnThatReportAndPlotRead) {
+  const fs::path out = fresh_dir("e2e", "predicted");
+  std::string err;
+  ASSERT_EQ(run_drops("run model.type=gp episodes=2 optimizer.max_evaluations=40 "
+                      "optimizer.prior_optimizations=1 rollouts.predicted=2 "
+                      "optimizer.reevaluation_rollouts=2 threads=1 -q --output " +
+                          (out / "runs").string() + " --name gp",
+                      &err),
+            0)
+      << err;
+  const fs::path run = out / "runs" / "gp";
+  const std::string csv = read_file(run / "episodes.csv");
+  EXPECT_EQ(csv.find("nan"), std::string::npos) << csv;
+  std::istringstream in(csv);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    rows.push_back(cells);
+  }
+  ASSERT_EQ(rows.size(), 3u) << csv;
+  ASSERT_GT(rows[0].size(), 3u);
+  EXPECT_EQ(rows[0][3], "predicted_return");
+  EXPECT_EQ(rows[1][3], "") << csv;  // episode 1: a random policy, no model
+  EXPECT_NE(rows[2][3], "") << csv;  // episode 2: the GP's prediction
+  EXPECT_NO_THROW(std::stod(rows[2][3])) << csv;
+  const auto summary = read_json(run / "summary.json");
+  EXPECT_TRUE(summary["episodes"][0]["predicted_return"].is_null());
+  ASSERT_EQ(run_drops("report " + out.string() + " --no-figures -o " + (out / "report").string(),
+                      &err, Stdout::kDiscard),
+            0)
+      << err;
+  EXPECT_TRUE(fs::exists(out / "report" / "returns.csv"));
+  if (std::system("/usr/bin/python3 -c 'import matplotlib, numpy' >/dev/null 2>&1") == 0) {
+    ASSERT_EQ(run_drops("plot " + run.string() + " -o " + (out / "plots").string(), &err,
+                        Stdout::kDiscard),
+              0)
+        << err;
+    EXPECT_TRUE(fs::exists(out / "plots" / "returns.png"));
+  }
+  fs::remove_all(out);
+}
+
 namespace {
 
 /// Starts `drops run <args> --output out --name run` in the background, its stderr to `err`.
