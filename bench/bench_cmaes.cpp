@@ -39,5 +39,3 @@ void BM_CmaesGeneration(benchmark::State& state) {
 BENCHMARK(BM_CmaesGeneration)->Arg(0)->Arg(1)->ArgName("parallel")->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

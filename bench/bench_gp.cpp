@@ -135,5 +135,3 @@ void BM_OptimizeHParams(benchmark::State& state) {
 BENCHMARK(BM_OptimizeHParams)->Arg(100)->Arg(500)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -311,5 +311,3 @@ BENCHMARK(BM_GpMiLearningFast)
     ->Unit(benchmark::kSecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

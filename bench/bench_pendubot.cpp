@@ -99,5 +99,3 @@ void BM_PolicyOptimization(benchmark::State& state) {
 BENCHMARK(BM_PolicyOptimization)->Arg(50)->Arg(100)->Arg(250)->Arg(500)->UseRealTime()->Iterations(1)->Unit(benchmark::kSecond);
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -184,14 +184,3 @@ BENCHMARK(BM_PilcoObjectiveAsDataGrow)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
-// As in the drops command line: OpenBLAS runs each call on the calling thread (drops parallelises
-// with TBB), else OpenBLAS's own threads compete with TBB's workers.
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  drops::use_single_threaded_blas();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
