@@ -1,6 +1,8 @@
 // Algorithm 1 as a library call: reproducibility across thread counts and episode bookkeeping.
 #include <gtest/gtest.h>
 
+#include <sstream>
+
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -306,6 +308,62 @@ TEST(BlackDrops, ARealEpisodeThatGoesNonFiniteEndsThereIsNotSolvedAndAddsOnlyIts
   EXPECT_FALSE(rollout::episode_solved(*e.setup.task, frozen));
   frozen.nonfinite_step = -1;
   EXPECT_EQ(rollout::episode_solved(*e.setup.task, frozen), e.setup.task->solved(frozen));
+}
+
+// Issue 43: a prior that cannot simulate the policy chosen on it (the pendubot's prior with a
+// damping of 100, or with one integration step of 0.5 s, both beyond what its explicit integrator
+// can follow) stops the run before the first real episode, with the step and phi in the message;
+// the real system is never started and nothing is recorded.
+TEST(BlackDrops, APriorThatCannotSimulateStopsTheRunBeforeTheFirstRealEpisode) {
+  class Counting final : public rollout::System {
+   public:
+    explicit Counting(const rollout::System& inner) : inner_(inner) {}
+    VectorXd step(const VectorXd& x, const VectorXd& u, Rng& rng) const override {
+      ++steps;
+      return inner_.step(x, u, rng);
+    }
+    std::unique_ptr<rollout::EpisodeSession> begin_episode(const VectorXd& x0) const override {
+      ++episodes;
+      return inner_.begin_episode(x0);
+    }
+    mutable int steps = 0, episodes = 0;
+
+   private:
+    const rollout::System& inner_;
+  };
+  ThreadLimit limit(1);
+  for (const std::string bad : {"prior.b2=100", "pendubot.dt=0.5 pendubot.substeps=1"}) {
+    std::vector<std::string> ov{"episodes=2", "optimizer.max_evaluations=300",
+                                "optimizer.prior_optimizations=1"};
+    std::istringstream words(bad);
+    for (std::string w; words >> w;) ov.push_back(w);
+    const auto e = fixtures::experiment(ov);
+    const Counting real(*e.setup.real);
+    int recorded = 0;
+    algo::BlackDropsCallbacks cb;
+    cb.on_episode = [&](const algo::EpisodeRecord&) { ++recorded; };
+    cb.on_state = [&](const algo::BlackDropsState&) { ++recorded; };
+    std::string what;
+    try {
+      algo::run_black_drops(e.setup.task, real, *e.setup.policy, e.setup.prior,
+                            e.setup.prior_parameters, experiment::black_drops_options(e.settings),
+                            cb);
+    } catch (const Error& err) {
+      what = err.what();
+    }
+    EXPECT_NE(what.find("the simulator prior cannot simulate the policy chosen on it"),
+              std::string::npos) << bad << ": " << what;
+    EXPECT_NE(what.find("nothing was run on the real system"), std::string::npos) << what;
+    EXPECT_EQ(real.episodes + real.steps, 0) << bad;
+    EXPECT_EQ(recorded, 0) << bad;
+  }
+  // The default prior simulates its policy: the real system runs.
+  const auto ok = fixtures::experiment({"episodes=1", "optimizer.max_evaluations=300",
+                                        "optimizer.prior_optimizations=1"});
+  const Counting real(*ok.setup.real);
+  algo::run_black_drops(ok.setup.task, real, *ok.setup.policy, ok.setup.prior,
+                        ok.setup.prior_parameters, experiment::black_drops_options(ok.settings));
+  EXPECT_EQ(real.episodes, 1);
 }
 
 TEST(BlackDrops, InvalidOptionsAreRejected) {

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/rng.hpp"
@@ -160,6 +161,25 @@ void run_on_real_system(const rollout::Task& task, const rollout::System& real,
   p.episodes_done = rec.episode;
 }
 
+// Before the first real episode: the prior must simulate the policy it chose (its mean
+// propagation, step 3). One that cannot (a stiff setting its integrator diverges on, a parameter
+// it cannot handle) would otherwise fail only after an episode on the real system.
+void check_prior_simulates(const rollout::Task& task, const model::PriorParameters& parameters,
+                           const EpisodeRecord& rec) {
+  if (rec.predicted.nonfinite_step < 0) return;
+  std::ostringstream phi;
+  for (Eigen::Index i = 0; i < rec.phi.size(); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    phi << (i ? ", " : "") << (k < parameters.names.size() ? parameters.names[k] + "=" : "")
+        << rec.phi[i];
+  }
+  throw Error("episode 1: the simulator prior cannot simulate the policy chosen on it: its state "
+              "became non-finite at step " + std::to_string(rec.predicted.nonfinite_step + 1) +
+              " of " + std::to_string(task.horizon()) + " (phi = [" + phi.str() +
+              "]); nothing was run on the real system. Check the prior's parameters and time "
+              "step");
+}
+
 }  // namespace
 
 model::ModelOptions black_drops_model_defaults() {
@@ -265,6 +285,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     // 3. Predict its behaviour on that model.
     rec.predicted_return = kNaN;
     if (planning) predict(*task, *planning, policy, options, rec);
+    if (episode == 1 && planning) check_prior_simulates(*task, prior_parameters, rec);
     // 4. Run it on the real system; its transitions join the data.
     status(episode, "episode", 0, 0);
     run_on_real_system(*task, real, policy, options, p, rec);

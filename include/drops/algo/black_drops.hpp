@@ -69,7 +69,9 @@ using BlackDropsSummary = RunSummary;
 /// only this call. A real episode whose system returns a non-finite state ends at that step
 /// (Trajectory::nonfinite_step), is not solved and adds only its finite transitions to the data.
 /// Throws InvalidArgument on invalid options, mismatched dimensions or a resume state that does
-/// not fit; Error when a model is to be learned and no finite real transition exists;
+/// not fit; Error when a model is to be learned and no finite real transition exists, and Error
+/// before the first real episode when the prior's mean propagation of the policy chosen on it
+/// goes non-finite (the prior cannot simulate it: nothing runs on the real system);
 /// exceptions from callbacks propagate. Not thread-safe (uses parallel_for internally).
 BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const rollout::System& real, const policy::Policy& policy,
