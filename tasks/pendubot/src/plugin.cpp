@@ -61,7 +61,7 @@ class PendubotPlugin final : public experiment::TaskPlugin {
          "starting prior of Table I: tunable-useful (A), tunable (B), tunable-misleading (C), "
          "partially-tunable (D), or actual"});
     for (const auto& p : kParams)
-      add({"prior." + p, "double", "", 0.0, 100, {},
+      add({"prior." + p, "double", "", p[0] == 'b' ? 0.0 : kMinMassOrLength, 100, {},
            p[0] == 'm' ? "kg" : p[0] == 'l' ? "m" : "N m s",
            "prior's " + p + " (empty = the preset's value); a custom prior is the preset plus these"});
     add({"prior.tunable", "names", "[m1, m2, l1, l2]", 0, 0, kParams, "-",
@@ -74,7 +74,8 @@ class PendubotPlugin final : public experiment::TaskPlugin {
                (ml ? " (lower >= 0.01: the inertia matrix is singular at 0)" : "")});
     }
     add({"pendubot.dt", "double", num(to.dt), 1e-4, 1, {}, "s", "control period"});
-    add({"pendubot.duration", "double", num(to.duration), 0.01, 100, {}, "s", "episode length"});
+    add({"pendubot.duration", "double", num(to.duration), 0.01, 100, {}, "s",
+         "episode length (>= 3 pendubot.dt)"});
     add({"pendubot.max_torque", "double", num(to.max_torque), 1e-3, 100, {}, "N m",
          "torque bound |u|"});
     add({"pendubot.substeps", "int", num(to.substeps), 1, 1000, {}, "-",
@@ -101,9 +102,10 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     to.reward_sigma = get_double(st, "pendubot.reward_sigma");
     to.solved_radius = get_double(st, "pendubot.solved_radius");
     to.solved_window = get_double(st, "pendubot.solved_window");
-    if (to.duration < to.dt)
+    // Three control periods at least: IT&E's behaviour descriptor reads the tip at three steps.
+    if (to.duration < 3 * to.dt)
       throw ConfigError("config key 'pendubot.duration' = '" + st.at("pendubot.duration") +
-                        "': must be >= pendubot.dt");
+                        "': must be >= 3 pendubot.dt (three control periods)");
     VectorXd actual_phi(6);
     for (int i = 0; i < 6; ++i)
       actual_phi[i] = get_double(st, "system." + kParams[static_cast<std::size_t>(i)]);
