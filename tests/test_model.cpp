@@ -10,6 +10,7 @@
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
 #include "drops/pendubot/pendubot.hpp"
+#include "pendulum_task.hpp"
 
 using namespace drops;
 
@@ -80,6 +81,81 @@ TEST(GpMi, SumOfLogLikelihoodsScoreAlsoIdentifiesM2AndReportsTheSum) {
             -std::numeric_limits<double>::infinity());
   EXPECT_NEAR(model::gp_mi_score(ll, model::GpMiScore::kSumOfLikelihoods),
               std::log(std::exp(-1.0) + std::exp(2.0)), 1e-12);
+}
+
+/// A pendulum simulator of the simplest kind: x = [omega, theta] (rad/s, rad; theta = pi hanging),
+/// u = [torque] (N m), one explicit Euler step of 0.05 s per control period,
+///   omega' = omega + dt (u - b omega + m g l sin theta) / (m l^2),  theta' = theta + dt omega,
+/// so its angle output does not depend on phi = [m, l, b] (kg, m, N m s); those three trade off
+/// in the velocity output (g / l, 1 / (m l^2) and b / (m l^2) are what the data show).
+VectorXd euler_pendulum_step(const VectorXd& phi, const VectorXd& x, double u) {
+  constexpr double kDt = 0.05, kG = 9.81;
+  const double m = phi[0], l = phi[1], b = phi[2];
+  VectorXd next(2);
+  next << x[0] + kDt * (u - b * x[0] + m * kG * l * std::sin(x[1])) / (m * l * l),
+      x[1] + kDt * x[0];
+  return next;
+}
+
+class EulerPendulumPrior final : public model::MeanFunction {
+ public:
+  int state_dim() const override { return 2; }
+  int action_dim() const override { return 1; }
+  std::vector<std::string> parameter_names() const override { return {"m", "l", "b"}; }
+  void check_phi(const VectorXd& phi) const override {
+    if (phi.size() != 3 || !(phi[0] > 0.01 && phi[1] > 0.01 && phi[2] >= 0))
+      throw InvalidArgument("EulerPendulumPrior: phi = [m > 0.01, l > 0.01, b >= 0]");
+  }
+  void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
+                Eigen::Ref<VectorXd> dx) const override {
+    dx = euler_pendulum_step(phi, x, u[0]) - x;
+  }
+  std::unique_ptr<model::MeanFunction> clone() const override {
+    return std::make_unique<EulerPendulumPrior>(*this);
+  }
+};
+
+// GP-MI's default score identifies every parameter of a prior whose parameters trade off and one
+// of whose outputs every phi predicts alike (issue 43): the pendulum above with m = 1 kg,
+// l = 0.6 m, b = 0.05 N m s, from three 2 s episodes of random torques in [-1, 1] N m, each of
+// m, l, b within 10 % of the truth from a prior 40-60 % off. The paper's sum of the likelihoods is
+// dominated by the angle's output, which phi does not change: docs/decisions/gp-mi-score.md.
+TEST(GpMi, TheDefaultScoreIdentifiesEveryParameterOfAPendulum) {
+  const Eigen::Vector3d truth(1.0, 0.6, 0.05);
+  std::vector<Transition> data;
+  Rng rng(7);
+  for (int e = 0; e < 3; ++e) {
+    VectorXd x(2);
+    x << 0.0, std::numbers::pi;
+    for (int t = 0; t < 40; ++t) {
+      const VectorXd u = VectorXd::Constant(1, rng.uniform(-1.0, 1.0));
+      const VectorXd next = euler_pendulum_step(truth, x, u[0]);
+      data.push_back({x, u, next - x});
+      x = next;
+    }
+  }
+  model::PriorParameters p;
+  p.names = {"m", "l", "b"};
+  p.values = Eigen::Vector3d(0.5, 1.0, 0.02);
+  p.tunable = {0, 1, 2};
+  p.lower = Eigen::Vector3d(0.1, 0.1, 0.0);
+  p.upper = Eigen::Vector3d(2.0, 2.0, 0.5);
+  p.choices.assign(3, {});
+  auto learn = [&](const model::ModelOptions& o) {
+    return model::make_model(o, std::make_shared<drops::testing::PendulumTask>(),
+                             std::make_shared<EulerPendulumPrior>(), p)
+        ->learn(data);
+  };
+  const auto s = learn({});
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(s.phi[i], truth[i], 0.1 * truth[i]) << p.names[i] << ": " << s.BriefReport();
+  // The paper's score on the same data: phi stays where it started (the measurement of
+  // docs/decisions/gp-mi-score.md; printed, not asserted).
+  model::ModelOptions paper;
+  paper.gp_mi.score = model::GpMiScore::kSumOfLikelihoods;
+  const auto sp = learn(paper);
+  std::printf("[info] sum of the likelihoods: phi = [%g, %g, %g]\n", sp.phi[0], sp.phi[1],
+              sp.phi[2]);
 }
 
 TEST(GpMi, IdentifiesM2FromTwoEpisodesStartingFromTheTunablePrior) {

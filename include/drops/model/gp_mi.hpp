@@ -35,11 +35,12 @@ enum class GpMiSearch {
 /// How GP-MI combines the E output GPs' log marginal likelihoods l_i into its score.
 enum class GpMiScore {
   /// log sum_i exp(l_i): the paper's "sum of the likelihoods" (settings.md §4). Dominated by the
-  /// single best-fitting output, so with many outputs that every prior predicts alike (the
-  /// joint outputs of a legged robot) it can ignore the outputs that tell the priors apart.
+  /// single best-fitting output, so with outputs that every prior predicts alike (the joint
+  /// outputs of a legged robot, a position integrated from the previous velocity) it can ignore
+  /// the outputs that tell the priors apart.
   kSumOfLikelihoods,
   /// sum_i l_i: the joint log likelihood of the independent output GPs (the product of the
-  /// likelihoods), which every output informs.
+  /// likelihoods), which every output informs. The default.
   kSumOfLogLikelihoods,
 };
 
@@ -60,7 +61,11 @@ enum class GpMiCandidateStart {
 /// Options of GP-MI (settings.md §4).
 struct GpMiOptions {
   GpMiSearch search = GpMiSearch::kAlternating;
-  GpMiScore score = GpMiScore::kSumOfLikelihoods;  ///< how the per-output likelihoods combine
+  /// How the per-output likelihoods combine. The joint likelihood by default: it identified every
+  /// parameter of a pendulum whose angle output no phi changes, where the paper's sum of the
+  /// likelihoods left phi at its start (docs/decisions/gp-mi-score.md). A task may choose the
+  /// paper's score as its default (TaskPlugin::shared_defaults, key model.gp_mi.score).
+  GpMiScore score = GpMiScore::kSumOfLogLikelihoods;
   /// nested search: where each candidate's kernel fit starts
   GpMiCandidateStart candidate_start = GpMiCandidateStart::kBestSoFar;
   int max_evaluations = 1000;   ///< Subplex evaluations per search (per discrete combination), >= 1
