@@ -7,7 +7,7 @@
 // For each prior of the family (intact, leg 0..5 removed), fits a gp_prior model with that prior
 // on the measured transitions of episodes 1..K of RUN_DIR (episodes/NNN/real.csv) and prints the
 // log marginal likelihoods of its 48 output GPs, combined four ways: the paper's score
-// log sum_i exp(l_i) (GP-MI's default), sum_i l_i (model.gp_mi.score: sum_log_likelihoods), and
+// log sum_i exp(l_i) (model.gp_mi.score: sum_likelihoods), sum_i l_i (sum_log_likelihoods), and
 // sum_i l_i over the 36 joint outputs and over the 12 body outputs. "walls RATIO SNR" enables
 // PILCO's soft walls in the kernel fits, as `drops run` on the hexapod (10 500). "friction MU"
 // gives the priors' ground this Coulomb coefficient (hexapod.prior.ground_friction; default 1,
