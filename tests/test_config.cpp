@@ -290,7 +290,7 @@ TEST(Config, EveryNumericKeyAcceptsBothEndsOfItsDocumentedRangeAndNothingBeyond)
 }
 
 // The schema is the base keys plus the experiment's task's own: another task's key is refused
-// with the task it belongs to (user input), or dropped from an old run directory's config.yaml.
+// with the task it belongs to.
 TEST(Config, TaskKeysBelongToTheirTask) {
   const auto& r = toy_registry();
   const auto toy = experiment::load_settings(r, "task: toy\n", {"toy.length=2"});
@@ -303,8 +303,6 @@ TEST(Config, TaskKeysBelongToTheirTask) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("belongs to task 'toy'"), std::string::npos) << e.what();
   }
-  const auto old = experiment::load_run_settings(r, "task: pendubot\ntoy: {length: 3}\n", {});
-  EXPECT_EQ(old.count("toy.length"), 0u);
   // A task whose keys collide with the base keys is refused.
   class Bad : public ToyTask {
     std::string name() const override { return "bad"; }
@@ -343,28 +341,22 @@ TEST(Config, TaskDependentDefaultsComeFromTheTaskAndExplicitValuesWin) {
   EXPECT_DOUBLE_EQ(on.model.rprop.max_length_scale_ratio, 100.0);
 }
 
-// A run directory's config.yaml written before the policy search's rework added its keys resumes
-// with the search it began with; a config that names the keys (or a user's file) keeps today's.
-TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
-  const std::string old_run =
+// A config that leaves the policy search's keys out gets today's defaults; a run directory's
+// config.yaml (to_yaml of the settings) names every key and loads back to the same settings, so
+// `drops run RUN_DIR/config.yaml` repeats the run.
+TEST(Config, OmittedSearchKeysTakeTodaysDefaultsAndARunConfigLoadsBackUnchanged) {
+  const std::string partial =
       "task: pendubot\noptimizer:\n  max_evaluations: 10000\n  keep_start: false\n";
-  const auto legacy = algo_of(experiment::load_run_settings(registry(), old_run, {"episodes=20"}));
-  EXPECT_EQ(legacy.search.selection, algo::PolicySelection::kBestSeen);
-  EXPECT_EQ(legacy.search.cmaes.max_run_evaluations, 0);
-  EXPECT_FALSE(legacy.search.cmaes.stagnation);
-  EXPECT_EQ(legacy.search.cmaes.tol_fun, 1e-12);
-  EXPECT_EQ(legacy.search.cmaes.restart_start, opt::CmaesRestartStart::kRandom);
-  EXPECT_FALSE(legacy.search.keep_start_point);
-  EXPECT_EQ(legacy.episodes, 20);  // the caller's overrides still apply
-  const auto user = algo_of(settings(old_run));
+  const auto user = algo_of(settings(partial, {"episodes=20"}));
   EXPECT_EQ(user.search.selection, algo::PolicySelection::kReevaluate);
   EXPECT_EQ(user.search.cmaes.max_run_evaluations, 2500);  // a quarter of the total
   EXPECT_TRUE(user.search.cmaes.stagnation);
   EXPECT_EQ(user.search.cmaes.restart_start, opt::CmaesRestartStart::kMixed);
-  // A run written today names every key: nothing is replaced.
-  const auto now = settings("");
-  EXPECT_EQ(experiment::load_run_settings(registry(), experiment::to_yaml(registry(), now), {}),
-            now);
+  EXPECT_FALSE(user.search.keep_start_point);
+  EXPECT_EQ(user.episodes, 20);
+  for (const auto& now : {settings(""), settings(partial, {"model.type=gp_prior", "seed=7"})})
+    EXPECT_EQ(experiment::load_settings(registry(), experiment::to_yaml(registry(), now), {}),
+              now);
   const auto big = algo_of(settings("", {"optimizer.max_evaluations=40000"}));
   EXPECT_EQ(big.search.cmaes.max_run_evaluations, 10000);
   const auto set =
@@ -372,12 +364,12 @@ TEST(Config, RunSettingsWithoutTheNewSearchKeysKeepTheOldSearch) {
   EXPECT_EQ(set.search.cmaes.max_run_evaluations, 0);
 }
 
-// Settings written before a default became task-dependent hold the old value explicitly (and
-// those written before tasks had sections hold every task's keys and "auto"); once resolved,
-// both compare equal (the campaign relies on this to continue old campaigns).
-TEST(Config, ResolvedDerivedDefaultsEqualTheValuesOlderRunsWrote) {
+// Settings that hold the task-dependent values explicitly (as a run directory's config.yaml does),
+// "auto" or empty compare equal to the derived defaults once resolved (the campaign compares a
+// kept run's config.yaml with the campaign's settings this way).
+TEST(Config, ResolvedDerivedDefaultsEqualTheSameValuesWrittenExplicitly) {
   const auto now = settings("");
-  const auto old = experiment::load_run_settings(
+  const auto written = experiment::load_settings(
       registry(),
       "task: pendubot\noptimizer: {max_evaluations: 10000, selection: reevaluate, "
       "run_evaluations: ~, stagnation: true, tol_fun: 0.01, restart_from: mixed}\n"
@@ -392,7 +384,7 @@ TEST(Config, ResolvedDerivedDefaultsEqualTheValuesOlderRunsWrote) {
   EXPECT_EQ(now.at("model.gp_mi.score"), "sum_likelihoods");  // the paper's, for the pendubot
   EXPECT_EQ(now.at("model.gp_mi.candidate_start"), "best_so_far");
   std::string key;
-  EXPECT_TRUE(experiment::same_settings(now, old, {}, &key)) << key;
+  EXPECT_TRUE(experiment::same_settings(now, written, {}, &key)) << key;
 }
 
 TEST(Config, TheAlgorithmChoosesTheVariantAndItsKeys) {

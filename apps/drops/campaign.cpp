@@ -265,14 +265,13 @@ void check_run_config(const experiment::Registry& registry, const fs::path& run_
                       const CampaignRun& run, const fs::path& campaign) {
   experiment::Settings existing;
   try {
-    existing = experiment::load_run_settings(registry, read_text(run_dir / "config.yaml"), {});
+    existing = experiment::load_settings(registry, read_text(run_dir / "config.yaml"), {});
   } catch (const std::exception& e) {
     throw ConfigError("run " + run.name + " in " + campaign.string() +
                       ": its config.yaml cannot be compared with this campaign (" + e.what() +
                       "); use a new campaign name (key 'name') or another --output");
   }
-  // Compare what the runs do: an empty task-dependent default equals its value (run directories
-  // made before a default became task-dependent hold the value).
+  // Compare what the runs do: an empty task-dependent default equals its value.
   experiment::Settings wanted = run.settings;
   experiment::resolve_derived_defaults(registry, existing);
   experiment::resolve_derived_defaults(registry, wanted);

@@ -41,11 +41,7 @@ void split_args(const std::vector<std::string>& args, std::string& file,
 experiment::Settings settings_from(const experiment::Registry& registry, const std::string& file,
                                    const std::vector<std::string>& overrides) {
   if (file.empty()) return experiment::load_settings(registry, "", overrides);
-  // A run directory's config.yaml repeats that run, also when it predates a key (see
-  // experiment::load_run_settings).
-  return experiment::is_run_config(file)
-             ? experiment::load_run_settings_file(registry, file, overrides)
-             : experiment::load_settings_file(registry, file, overrides);
+  return experiment::load_settings_file(registry, file, overrides);
 }
 
 experiment::Experiment make_experiment_from(const experiment::Registry& registry,

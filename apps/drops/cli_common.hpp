@@ -18,9 +18,9 @@ void split_args(const std::vector<std::string>& args, std::string& file,
                 std::vector<std::string>& overrides);
 
 /// The settings of `file` (empty: the defaults) with `overrides` applied
-/// (experiment::load_settings_file / load_settings; load_run_settings_file when `file` is a run
-/// directory's config.yaml, so that `drops run RUN_DIR/config.yaml` repeats that run). Throws
-/// ConfigError on an unknown key or a bad value (the message names it).
+/// (experiment::load_settings_file / load_settings; a run directory's config.yaml holds every key,
+/// so `drops run RUN_DIR/config.yaml` repeats that run). Throws ConfigError on an unknown key or a
+/// bad value (the message names it).
 experiment::Settings settings_from(const experiment::Registry& registry, const std::string& file,
                                    const std::vector<std::string>& overrides);
 

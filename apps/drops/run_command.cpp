@@ -246,7 +246,7 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
     if (!std::filesystem::exists(d / "config.yaml"))
       throw Error(d.string() + " is not a run directory (no config.yaml)");
     source = (d / "config.yaml").string();
-    settings = experiment::load_run_settings_file(registry, source, overrides);
+    settings = experiment::load_settings_file(registry, source, overrides);
   } else {
     if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
     if (!a.output.empty()) overrides.push_back("output=" + a.output);

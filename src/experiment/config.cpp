@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -398,7 +397,7 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
 }
 
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
-                       const std::vector<std::string>& overrides, ForeignKeys foreign) {
+                       const std::vector<std::string>& overrides) {
   // 1. The document and the overrides as (dotted key, YAML node), in order.
   std::vector<std::pair<std::string, YAML::Node>> entries;
   auto is_key = [&](const std::string& k) { return known_anywhere(registry, k); };
@@ -436,13 +435,7 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
   for (const auto& [k, n] : entries) {
     const KeySpec* s = spec(k);
     if (!s) {
-      const std::string head = k.substr(0, k.find('.'));
-      const auto unavailable = registry.unavailable_task_names();
-      if (foreign == ForeignKeys::kDrop &&
-          std::find(unavailable.begin(), unavailable.end(), head) != unavailable.end())
-        continue;  // the section of a task this build does not offer
       if (const TaskPlugin* owner = registry.task_of_key(k)) {
-        if (foreign == ForeignKeys::kDrop) continue;
         fail(k, node_text(n), "this key belongs to task '" + owner->name() +
                                   "'; this experiment's task is '" + task + "'");
       }
@@ -466,48 +459,6 @@ Settings load_settings_file(const Registry& registry, const std::string& path,
   } catch (const ConfigError& e) {
     throw ConfigError(path + ": " + e.what());
   }
-}
-
-Settings load_run_settings(const Registry& registry, const std::string& yaml_text,
-                           const std::vector<std::string>& overrides) {
-  // Keys added after a run may have been written, with the value that reproduces the old runs.
-  static const std::pair<const char*, const char*> kLegacy[] = {
-      {"optimizer.selection", "best_seen"},
-      {"optimizer.run_evaluations", "0"},
-      {"optimizer.stagnation", "false"},
-      {"optimizer.tol_fun", "1e-12"},
-      {"optimizer.restart_from", "random"},
-      {"model.gp_mi.candidate_start", "best_so_far"},
-      {"optimizer.trust_region", "false"},
-  };
-  std::vector<std::pair<std::string, YAML::Node>> present;
-  flatten(parse_yaml(yaml_text, "config"), "",
-          [&](const std::string& k) { return known_anywhere(registry, k); }, present);
-  std::vector<std::string> all;
-  for (const auto& [key, value] : kLegacy) {
-    bool found = false;
-    for (const auto& p : present) found = found || p.first == key;
-    if (!found) all.push_back(std::string(key) + "=" + value);
-  }
-  all.insert(all.end(), overrides.begin(), overrides.end());
-  return load_settings(registry, yaml_text, all, ForeignKeys::kDrop);
-}
-
-Settings load_run_settings_file(const Registry& registry, const std::string& path,
-                                const std::vector<std::string>& overrides) {
-  const std::string text = read_config_file(path);
-  try {
-    return load_run_settings(registry, text, overrides);
-  } catch (const ConfigError& e) {
-    throw ConfigError(path + ": " + e.what());
-  }
-}
-
-bool is_run_config(const std::string& path) {
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  return std::filesystem::exists(dir / "episodes.csv", ec) ||
-         std::filesystem::exists(dir / "summary.json", ec);
 }
 
 void resolve_derived_defaults(const Registry& registry, Settings& settings) {

@@ -103,12 +103,6 @@ std::vector<std::string> Registry::algorithm_names() const {
   return v;
 }
 
-std::vector<std::string> Registry::unavailable_task_names() const {
-  std::vector<std::string> v;
-  for (const auto& [name, reason] : unavailable_) v.push_back(name);
-  return v;
-}
-
 std::string Registry::default_task() const {
   if (tasks_.empty()) throw ConfigError("no task is registered");
   return tasks_.front()->name();

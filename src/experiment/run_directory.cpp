@@ -965,7 +965,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
   bool have_config = false;
   if (registry && fs::exists(dir / "config.yaml")) {
     try {
-      config = load_run_settings_file(*registry, (dir / "config.yaml").string(), {});
+      config = load_settings_file(*registry, (dir / "config.yaml").string(), {});
       have_config = true;
     } catch (const ConfigError&) {
       // an unknown task, or a file this drops cannot read: summary.json alone

@@ -43,12 +43,6 @@ const std::vector<KeySpec>& base_keys();
 /// algorithm's keys, then the task's own keys. Throws ConfigError when the task is unknown.
 std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 
-/// How load_settings treats keys that belong to another registered task than the experiment's.
-enum class ForeignKeys {
-  kReject,  ///< a ConfigError naming the task the key belongs to (user input)
-  kDrop,    ///< ignored (the config.yaml of run directories written before tasks had sections)
-};
-
 /// Reads a YAML document (text) and applies key=value overrides (value parsed as YAML, so
 /// "prior.bounds.m1=[0.1, 1]" works). The task is the value of `task` after the overrides
 /// (default: the registry's default task); its schema (schema()) decides which keys exist. Fills
@@ -56,34 +50,16 @@ enum class ForeignKeys {
 /// naming the key, the value and what is allowed for unknown keys, wrong types and out-of-range
 /// values. An empty text gives the defaults.
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
-                       const std::vector<std::string>& overrides,
-                       ForeignKeys foreign = ForeignKeys::kReject);
+                       const std::vector<std::string>& overrides);
 /// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
 Settings load_settings_file(const Registry& registry, const std::string& path,
                             const std::vector<std::string>& overrides);
 
-/// As load_settings, for the config.yaml of a run directory (every key resolved by the drops that
-/// wrote it). Keys of other tasks are dropped (run directories written before tasks had their own
-/// sections hold every task's keys). A key added to drops after that run was written, whose
-/// default changed what a run does, gets the value that reproduces the old behaviour instead of
-/// today's default: the keys the policy search's rework added (optimizer.selection best_seen,
-/// optimizer.run_evaluations 0, optimizer.stagnation false, optimizer.tol_fun 1e-12,
-/// optimizer.restart_from random). So a resumed or repeated old run goes on as it began, and a
-/// campaign sees that it differs from one with today's defaults. Throws as load_settings.
-Settings load_run_settings(const Registry& registry, const std::string& yaml_text,
-                           const std::vector<std::string>& overrides);
-/// load_run_settings of a file (errors name the file).
-Settings load_run_settings_file(const Registry& registry, const std::string& path,
-                                const std::vector<std::string>& overrides);
-/// True when `path` is the config.yaml of a run directory (its folder holds episodes.csv or
-/// summary.json).
-bool is_run_config(const std::string& path);
-
 /// Replaces the empty value of each key whose default depends on the task by the task's value
 /// (TaskPlugin::shared_defaults; base keys the task does not set get the base rule, algorithm
 /// keys stay empty), and optimizer.run_evaluations by a quarter of
-/// optimizer.max_evaluations, so that settings written before a default became task-dependent
-/// compare equal to today's. Leaves settings of an unknown task unchanged. Thread-safe.
+/// optimizer.max_evaluations, so that a value given explicitly and the same value derived compare
+/// equal. Leaves settings of an unknown task unchanged. Thread-safe.
 void resolve_derived_defaults(const Registry& registry, Settings& settings);
 
 /// Settings as a nested YAML document in schema order (the resolved config written into each run

@@ -163,8 +163,6 @@ class Registry {
   bool has_task(const std::string& name) const;
   std::vector<std::string> task_names() const;       ///< in registration order
   std::vector<std::string> algorithm_names() const;  ///< in registration order
-  /// The names given to add_unavailable_task (and not registered since).
-  std::vector<std::string> unavailable_task_names() const;
   /// The first registered task / algorithm. Throws ConfigError when none is registered.
   std::string default_task() const;
   std::string default_algorithm() const;

@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
     drops::experiment::register_builtin_algorithms(registry);
     hx::register_task(registry);
     const drops::experiment::Settings settings =
-        drops::experiment::load_run_settings_file(registry, (run / "config.yaml").string(), {});
+        drops::experiment::load_settings_file(registry, (run / "config.yaml").string(), {});
     if (settings.at("task") != "hexapod")
       throw drops::ConfigError(run.string() + " is not a hexapod run");
     const std::vector<Eigen::VectorXd> states = read_states(csv);
