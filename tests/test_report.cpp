@@ -68,7 +68,8 @@ void fake_run(const fs::path& runs, const std::string& name, const std::string& 
   write(dir / "config.yaml", "task: pendubot\nseed: " + std::to_string(seed) +
                                  "\nmodel:\n  type: " + model + "\nprior:\n  preset: " + prior +
                                  "\n  tunable: [m1]\n" + extra_config);
-  nlohmann::json s = {{"task", "pendubot"},
+  nlohmann::json s = {{"format_version", kRunDirectoryFormatVersion},
+                      {"task", "pendubot"},
                       {"model", model},
                       {"prior", prior},
                       {"seed", seed},
@@ -361,6 +362,7 @@ void fake_hexapod_run(const fs::path& runs, const std::string& name, const std::
   for (int leg = -1; leg < 6; ++leg)
     labels.push_back({leg, leg < 0 ? std::string("intact") : "leg" + std::to_string(leg)});
   nlohmann::json s = {
+      {"format_version", kRunDirectoryFormatVersion},
       {"task", "hexapod"},        {"algorithm", "black_drops"},
       {"model", model},           {"uses_prior", true},
       {"prior", "intact"},        {"seed", seed},
@@ -456,6 +458,41 @@ TEST(Report, UnreadableSummaryIsListedButNotCounted) {
   EXPECT_EQ(it->status, "unreadable");
   EXPECT_FALSE(it->error.empty());
   EXPECT_EQ(group(rep, "gp", "tunable-useful").runs, 3);
+}
+
+// Run-directory format version 1 is the one this drops reads: a summary.json of another version,
+// or without one (written before the format was versioned), makes its run unreadable with the
+// file, the version found and the version read named; the run is left out of the statistics.
+TEST(Report, ARunOfAnotherFormatVersionIsUnreadableAndSaysWhichVersions) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const fs::path newer = tmp.path() / "runs" / "gp-tunable-useful-seed1" / "summary.json";
+  const fs::path unversioned = tmp.path() / "runs" / "gp-tunable-useful-seed2" / "summary.json";
+  auto s = nlohmann::json::parse(read(newer));
+  ASSERT_EQ(s["format_version"], 1);
+  s["format_version"] = 2;
+  write(newer, s.dump());
+  s = nlohmann::json::parse(read(unversioned));
+  s.erase("format_version");
+  write(unversioned, s.dump());
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
+  const auto run = [&](const std::string& name) {
+    const auto it = std::find_if(rep.runs.begin(), rep.runs.end(),
+                                 [&](const RunResult& r) { return r.name == name; });
+    EXPECT_NE(it, rep.runs.end()) << name;
+    return it == rep.runs.end() ? RunResult{} : *it;
+  };
+  const RunResult a = run("gp-tunable-useful-seed1"), b = run("gp-tunable-useful-seed2");
+  EXPECT_EQ(a.status, "unreadable");
+  const std::string versions = ": run-directory format version 2, but this drops reads version 1";
+  EXPECT_NE(a.error.find(newer.string() + versions + " only"), std::string::npos) << a.error;
+  EXPECT_NE(a.error.find("run it again with this one"), std::string::npos) << a.error;
+  EXPECT_EQ(b.status, "unreadable");
+  EXPECT_NE(b.error.find(unversioned.string() + " has no format_version"), std::string::npos)
+      << b.error;
+  EXPECT_NE(b.error.find("reads run-directory format version 1 only"), std::string::npos)
+      << b.error;
+  EXPECT_EQ(group(rep, "gp", "tunable-useful").runs, 1);  // 3 runs, 2 of other versions
 }
 
 // ---------------------------------------------------------------- files

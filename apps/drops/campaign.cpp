@@ -260,9 +260,16 @@ std::string summary_status(const fs::path& run_dir) {
   }
 }
 
-/// Throws ConfigError when an existing run directory was made with other settings.
+/// Throws ConfigError when an existing run directory is of another run-directory format version
+/// or was made with other settings.
 void check_run_config(const experiment::Registry& registry, const fs::path& run_dir,
                       const CampaignRun& run, const fs::path& campaign) {
+  try {
+    experiment::check_run_directory_format(run_dir);
+  } catch (const Error& e) {
+    throw ConfigError("run " + run.name + " in " + campaign.string() + " cannot be kept: " +
+                      e.what() + "; or use a new campaign name (key 'name') or another --output");
+  }
   experiment::Settings existing;
   try {
     existing = experiment::load_settings(registry, read_text(run_dir / "config.yaml"), {});

@@ -245,6 +245,8 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
       throw Error(d.string() + " is not a run directory (no such directory)");
     if (!std::filesystem::exists(d / "config.yaml"))
       throw Error(d.string() + " is not a run directory (no config.yaml)");
+    // Another format version is named before its config.yaml, whose keys may differ, is read.
+    experiment::check_run_directory_format(d);
     source = (d / "config.yaml").string();
     settings = experiment::load_settings_file(registry, source, overrides);
   } else {

@@ -28,9 +28,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// 1: the state only; 2: also what it covers ("validation": the resolved configuration and the
-// SHA-256 of the recorded files) and its own SHA-256 ("checksum").
-constexpr int kCheckpointFormat = 2;
 // Keys a resumed run may change (drops run --resume DIR episodes=N threads=T).
 const std::set<std::string> kResumeKeys = {"episodes", "threads"};
 
@@ -113,6 +110,24 @@ std::string episode_folder(int episode) { return fmt::format("{:03d}", episode);
 std::string checkpoint_checksum(nlohmann::json j) {
   j.erase("checksum");
   return sha256_hex(j.dump());
+}
+
+/// Throws drops::Error unless j (the content of `file`, summary.json or checkpoint.json) carries
+/// "format_version" kRunDirectoryFormatVersion.
+void check_format_version(const nlohmann::json& j, const fs::path& file) {
+  const std::string supported = std::to_string(kRunDirectoryFormatVersion);
+  if (!j.is_object() || !j.contains("format_version"))
+    throw Error(file.string() + " has no format_version: the run directory was written by a " +
+                "drops from before its format was versioned, and this drops reads run-directory " +
+                "format version " + supported + " only. Read or continue it with the drops " +
+                "that wrote it, or run it again with this one");
+  const nlohmann::json& v = j["format_version"];
+  if (v.is_number_integer() && v.get<long long>() == kRunDirectoryFormatVersion) return;
+  const std::string found = v.is_string() ? v.get<std::string>() : v.dump();
+  throw Error(file.string() + ": run-directory format version " + found +
+              ", but this drops reads version " + supported +
+              " only. Read or continue the run with a drops that reads version " + found +
+              ", or run it again with this one");
 }
 
 /// The dotted keys present in a YAML document: a mapping is descended into unless its dotted key
@@ -287,7 +302,8 @@ void RunDirectory::start(const std::string& config_yaml) {
   for (const auto& m : e.setup.metric_names) header += "," + m;
   append_row(header + "\n");
   const auto& p = e.setup.prior_parameters;
-  summary_ = {{"task", e.task},
+  summary_ = {{"format_version", kRunDirectoryFormatVersion},
+              {"task", e.task},
               {"algorithm", e.algorithm},
               {"model", e.variant},
               {"uses_prior", e.uses_prior},
@@ -462,18 +478,18 @@ void RunDirectory::save_state(const algo::RunState& st) {
   for (const auto& [rel, sha] : file_sha256_) files[rel] = sha;
   nlohmann::json config = nlohmann::json::object();
   for (const auto& [k, v] : experiment_.settings) config[k] = v;
-  nlohmann::json j = {{"format", kCheckpointFormat},
-                            {"algorithm", experiment_.algorithm},
-                            {"seed", experiment_.seed},
-                            {"model_type", experiment_.variant},
-                            {"episodes_done", st.episodes_done},
-                            {"best_theta", to_std(st.best_theta)},
-                            {"best_return", number(st.best_return)},
-                            {"first_solved_episode", st.first_solved_episode},
-                            {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
-                            {"extra", extra},
-                            {"data", {{"x", data_x}, {"u", data_u}, {"dx", data_dx}}},
-                            {"validation", {{"config", config}, {"sha256", files}}}};
+  nlohmann::json j = {{"format_version", kRunDirectoryFormatVersion},
+                      {"algorithm", experiment_.algorithm},
+                      {"seed", experiment_.seed},
+                      {"model_type", experiment_.variant},
+                      {"episodes_done", st.episodes_done},
+                      {"best_theta", to_std(st.best_theta)},
+                      {"best_return", number(st.best_return)},
+                      {"first_solved_episode", st.first_solved_episode},
+                      {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
+                      {"extra", extra},
+                      {"data", {{"x", data_x}, {"u", data_u}, {"dx", data_dx}}},
+                      {"validation", {{"config", config}, {"sha256", files}}}};
   // nlohmann writes the shortest decimal form that reads back to the same double, so the
   // checksum of the file read back and dumped again is this one.
   j["checksum"] = checkpoint_checksum(j);
@@ -483,7 +499,7 @@ void RunDirectory::save_state(const algo::RunState& st) {
 
 namespace {
 
-/// checkpoint.json parsed, its format and (format 2) its checksum checked.
+/// checkpoint.json parsed, its format version and its checksum checked.
 nlohmann::json read_checkpoint_json(const fs::path& dir) {
   const fs::path cp = dir / "checkpoint.json";
   if (!fs::exists(cp)) throw Error("run " + dir.string() + " has no checkpoint.json");
@@ -495,23 +511,16 @@ nlohmann::json read_checkpoint_json(const fs::path& dir) {
                               "): the file is damaged (drops replaces it atomically, so a crash "
                               "does not cut it); the run cannot be continued, start it again");
   }
-  if (!j.is_object() || !j.contains("format") || !j["format"].is_number_integer())
-    throw Error(cp.string() + " is malformed: no checkpoint format");
-  const int format = j["format"].get<int>();
-  if (format < 1 || format > kCheckpointFormat)
-    throw Error(cp.string() + ": checkpoint format " + std::to_string(format) +
-                " is not supported by this drops (it reads formats 1 to " +
-                std::to_string(kCheckpointFormat) + ")");
-  if (format >= 2) {
-    if (!j.contains("checksum") || !j["checksum"].is_string() || !j.contains("validation"))
-      throw RunDirectoryDamaged(cp.string() + " lacks its checksum or validation block: the file "
-                                "was edited; the run cannot be continued safely (start it again)");
-    if (j["checksum"].get<std::string>() != checkpoint_checksum(j))
-      throw RunDirectoryDamaged(cp.string() +
-                                " does not match its own checksum: the file was edited or damaged "
-                                "after drops wrote it; the run cannot be continued safely (restore "
-                                "the file or start the run again)");
-  }
+  check_format_version(j, cp);
+  if (!j.contains("checksum") || !j["checksum"].is_string() || !j.contains("validation"))
+    throw RunDirectoryDamaged(cp.string() +
+                              " lacks its checksum or validation block: the file "
+                              "was edited; the run cannot be continued safely (start it again)");
+  if (j["checksum"].get<std::string>() != checkpoint_checksum(j))
+    throw RunDirectoryDamaged(cp.string() +
+                              " does not match its own checksum: the file was edited or damaged "
+                              "after drops wrote it; the run cannot be continued safely (restore "
+                              "the file or start the run again)");
   return j;
 }
 
@@ -528,8 +537,7 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
     st.model.phi = to_eigen(j.at("model").at("phi"), "model.phi");
     for (const auto& h : j.at("model").at("h_params"))
       st.model.h_params.push_back(to_eigen(h, "h_params"));
-    if (j.contains("extra"))
-      for (const auto& [k, v] : j["extra"].items()) st.extra[k] = to_eigen(v, "extra." + k);
+    for (const auto& [k, v] : j.at("extra").items()) st.extra[k] = to_eigen(v, "extra." + k);
     const auto& d = j.at("data");
     const std::size_t n = d.at("x").size();
     if (d.at("u").size() != n || d.at("dx").size() != n)
@@ -557,8 +565,8 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
   }
 }
 
-/// The configuration the run was started with (checkpoint format 2) against config.yaml as it is
-/// now (its text) and the experiment resolved from it.
+/// The configuration the run was started with (checkpoint.json) against config.yaml as it is now
+/// (its text) and the experiment resolved from it.
 void check_config(const fs::path& dir, const nlohmann::json& started, const std::string& text,
                   const Settings& now) {
   const fs::path file = dir / "config.yaml";
@@ -624,20 +632,25 @@ int recorded_episodes(const fs::path& dir) {
   return n;
 }
 
-std::vector<std::string> split_cells(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream ss(line);
-  std::string c;
-  while (std::getline(ss, c, ',')) cells.push_back(c);
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
-
 }  // namespace
 
 algo::RunState read_checkpoint(const fs::path& dir) {
   const nlohmann::json j = read_checkpoint_json(dir);
   return state_from_json(j, dir / "checkpoint.json");
+}
+
+void check_run_directory_format(const fs::path& dir) {
+  for (const char* name : {"summary.json", "checkpoint.json"}) {
+    const fs::path file = dir / name;
+    if (!fs::exists(file)) continue;
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(read_text(file));
+    } catch (const nlohmann::json::exception&) {
+      continue;  // damaged, not of another format: the reader that needs the file says so
+    }
+    check_format_version(j, file);
+  }
 }
 
 std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Experiment& e,
@@ -671,22 +684,22 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     rd->restart(config_yaml);
     return rd;
   }
+  // A run directory of another format version is refused before anything else is read.
+  check_run_directory_format(dir);
   const nlohmann::json cp = read_checkpoint_json(dir);
   *state = state_from_json(cp, cp_path);
-  const std::string algorithm = cp.value("algorithm", std::string("black_drops"));
-  if (cp.value("seed", std::uint64_t{0}) != e.seed || algorithm != e.algorithm ||
-      cp.value("model_type", std::string()) != e.variant)
+  const std::string algorithm = cp.value("algorithm", std::string());
+  const std::string model_type = cp.value("model_type", std::string());
+  const std::uint64_t seed = cp.value("seed", std::uint64_t{0});
+  if (seed != e.seed || algorithm != e.algorithm || model_type != e.variant)
     throw RunDirectoryDamaged(
         cp_path.string() + " does not belong to the run's config.yaml (seed, algorithm or model " +
-        "differ: " + fmt::format("{} {} seed {} there, {} {} seed {} in config.yaml", algorithm,
-                                 cp.value("model_type", std::string()),
-                                 cp.value("seed", std::uint64_t{0}), e.algorithm, e.variant,
-                                 e.seed) +
+        "differ: " +
+        fmt::format("{} {} seed {} there, {} {} seed {} in config.yaml", algorithm, model_type,
+                    seed, e.algorithm, e.variant, e.seed) +
         ")");
   const int k = state->episodes_done;
-  const bool validated = cp.contains("validation");
-  nlohmann::json sha = validated ? cp["validation"].value("sha256", nlohmann::json::object())
-                                 : nlohmann::json::object();
+  const nlohmann::json sha = cp["validation"].value("sha256", nlohmann::json::object());
   auto recorded_sha = [&](const std::string& rel) {
     return sha.contains(rel) && sha[rel].is_string() ? sha[rel].get<std::string>() : std::string();
   };
@@ -695,8 +708,8 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
   // 1. The configuration.
   const fs::path config_path = dir / "config.yaml";
   const std::string config_text = read_text(config_path);
-  if (validated) check_config(dir, cp["validation"].value("config", nlohmann::json::object()),
-                              config_text, e.settings);
+  check_config(dir, cp["validation"].value("config", nlohmann::json::object()), config_text,
+               e.settings);
   if (e.runner->episodes() < k)
     throw ConfigError(fmt::format(
         "{}: episodes = {}, but the run has already done {} episodes (checkpoint.json); a resumed "
@@ -718,29 +731,11 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
         "edited after episode {} was recorded; restore it or start the run again",
         csv_path.string(), std::max(lines - 1, 0), k, k));
   const std::string covered = csv.substr(0, covered_end);
-  if (validated) {
-    if (sha256_hex(covered) != recorded_sha("episodes.csv"))
-      throw RunDirectoryDamaged(fmt::format(
-          "{}: its header and rows 1-{} differ from what drops recorded (checksum in "
-          "checkpoint.json): the file was edited or damaged; restore it or start the run again",
-          csv_path.string(), k));
-  } else {
-    std::istringstream in(covered);
-    std::string line;
-    std::getline(in, line);
-    const std::size_t columns = split_cells(line).size();
-    if (line.rfind("episode,", 0) != 0)
-      throw RunDirectoryDamaged(csv_path.string() + ": the first line is not the header ('" +
-                                line + "')");
-    for (int row = 1; row <= k; ++row) {
-      std::getline(in, line);
-      if (line.rfind(std::to_string(row) + ",", 0) != 0 || split_cells(line).size() != columns)
-        throw RunDirectoryDamaged(fmt::format(
-            "{}: row {} ('{}') is not the whole record of episode {} ({} cells): the file was "
-            "edited or damaged; restore it or start the run again",
-            csv_path.string(), row, line, row, columns));
-    }
-  }
+  if (sha256_hex(covered) != recorded_sha("episodes.csv"))
+    throw RunDirectoryDamaged(fmt::format(
+        "{}: its header and rows 1-{} differ from what drops recorded (checksum in "
+        "checkpoint.json): the file was edited or damaged; restore it or start the run again",
+        csv_path.string(), k));
   const std::string after = csv.substr(covered_end);
   if (!after.empty()) {
     const auto n = static_cast<std::size_t>(std::count(after.begin(), after.end(), '\n') +
@@ -787,7 +782,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
         "{} records {} of episodes 1-{}, not each once in order, but checkpoint.json covers {}: "
         "the file was edited or damaged; restore it or start the run again",
         summary_path.string(), plural(eps.size(), "entry"), k, k));
-  if (validated && sha256_hex(eps.dump()) != recorded_sha("summary.json"))
+  if (sha256_hex(eps.dump()) != recorded_sha("summary.json"))
     throw RunDirectoryDamaged(fmt::format(
         "{}: the records of episodes 1-{} differ from what drops recorded (checksum in "
         "checkpoint.json): the file was edited or damaged; restore it or start the run again",
@@ -798,26 +793,19 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
         plural(static_cast<std::size_t>(later_entries), "episode entry"), k));
 
   // 4. episodes/NNN: the files of episodes 1..k as written; folders of later episodes go.
-  if (validated) {
-    for (const auto& [rel, value] : sha.items()) {
-      if (rel.rfind("episodes/", 0) != 0) continue;
-      const fs::path f = dir / rel;
-      if (!fs::exists(f))
-        throw RunDirectoryDamaged(f.string() + " is missing, but checkpoint.json covers it: "
-                                  "restore the file or start the run again");
-      if (sha256_hex(read_text(f)) != value.get<std::string>())
-        throw RunDirectoryDamaged(f.string() + " differs from what drops recorded (checksum in "
-                                  "checkpoint.json): the file was edited or damaged; restore it "
-                                  "or start the run again");
-      rd->file_sha256_[rel] = value.get<std::string>();
-    }
-  } else {
-    // A run directory from before the checksums: they start from the files as they are now.
-    for (int ep = 1; ep <= k; ++ep)
-      for (const char* f : {"real.csv", "predicted.csv", "policy.csv"}) {
-        const std::string rel = "episodes/" + episode_folder(ep) + "/" + f;
-        if (fs::exists(dir / rel)) rd->file_sha256_[rel] = sha256_hex(read_text(dir / rel));
-      }
+  for (const auto& [rel, value] : sha.items()) {
+    if (rel.rfind("episodes/", 0) != 0) continue;
+    const fs::path f = dir / rel;
+    if (!fs::exists(f))
+      throw RunDirectoryDamaged(f.string() +
+                                " is missing, but checkpoint.json covers it: "
+                                "restore the file or start the run again");
+    if (sha256_hex(read_text(f)) != value.get<std::string>())
+      throw RunDirectoryDamaged(f.string() +
+                                " differs from what drops recorded (checksum in "
+                                "checkpoint.json): the file was edited or damaged; restore it "
+                                "or start the run again");
+    rd->file_sha256_[rel] = value.get<std::string>();
   }
   // 5. archive.csv, for an algorithm that keeps an archive (IT&E). It is not among the checksums:
   // it is written before checkpoint.json and carries its own MAP-Elites cursor, so one newer than
@@ -888,10 +876,6 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
   summary["episodes_planned"] = e.runner->episodes();
   summary.erase("finished");
   summary.erase("error");
-  // What the writer records about the run, brought up to date (older runs lack some of it).
-  summary["algorithm"] = e.algorithm;
-  summary["uses_prior"] = e.uses_prior;
-  summary["report"] = report_json(e.report);
   if (!summary.contains("resumed") || !summary["resumed"].is_array())
     summary["resumed"] = nlohmann::json::array();
   summary["resumed"].push_back(now_iso());
@@ -992,10 +976,11 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
   } else {
     try {
       const nlohmann::json s = nlohmann::json::parse(read_text(summary_path));
+      check_format_version(s, summary_path);
       run.status = s.value("status", std::string("running"));
       run.error = s.value("error", std::string());
       if (run.task.empty()) run.task = s.value("task", std::string());
-      if (run.algorithm.empty()) run.algorithm = s.value("algorithm", std::string("black_drops"));
+      if (run.algorithm.empty()) run.algorithm = s.value("algorithm", std::string());
       if (run.model_type.empty()) run.model_type = s.value("model", std::string());
       if (!have_config) run.uses_prior = s.value("uses_prior", run.model_type != "gp");
       if (run.prior.empty()) run.prior = s.value("prior", std::string());

@@ -209,6 +209,23 @@ TEST(Campaign, TinyCampaignCompletesLocallyAndASecondInvocationRunsNothing) {
   EXPECT_EQ(count_events(events, "start"), 4);
   EXPECT_EQ(count_events(events, "resume"), 0);
   EXPECT_EQ(count_events(events, "skip"), 4);
+
+  // A kept run of another run-directory format version stops the campaign (exit code 2) naming
+  // the run, the file and the versions, before anything runs.
+  const std::string run = *kTinyRuns.begin();
+  const fs::path summary = c / "runs" / run / "summary.json";
+  auto s = nlohmann::json::parse(read_file(summary));
+  s["format_version"] = 2;
+  write_file(summary, s.dump());
+  EXPECT_EQ(
+      run_drops("campaign " + kTiny + " --output " + d.string() + " -q", &err, Stdout::kDiscard),
+      2);
+  EXPECT_NE(err.find("run " + run + " in "), std::string::npos) << err;
+  EXPECT_NE(err.find(summary.string() +
+                     ": run-directory format version 2, but this drops reads version 1 only"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(count_events(read_log(c), "begin"), count_events(events, "begin"));
   clean_up(d);
 }
 

@@ -243,9 +243,8 @@ TEST(Faults, ADamagedRunDirectoryIsRefusedWithAnErrorNamingTheFile) {
 
 // What a crash after the checkpoint leaves (a row of the next episode cut mid-line, its summary
 // entry, a half-written episode folder) is removed, said on stderr, and the run continues to the
-// episodes of an uninterrupted run. A run directory from before the checksums (checkpoint format
-// 1) resumes too, with structural checks only.
-TEST(Faults, WhatACrashLeavesAfterTheCheckpointIsRepairedAndOldRunDirectoriesResume) {
+// episodes of an uninterrupted run.
+TEST(Faults, WhatACrashLeavesAfterTheCheckpointIsRepaired) {
   const fs::path out = fresh_dir("faults", "repair");
   std::string err;
   ASSERT_EQ(run_drops(kRun + " --output " + out.string() + " --name full -q", &err), 0) << err;
@@ -269,27 +268,65 @@ TEST(Faults, WhatACrashLeavesAfterTheCheckpointIsRepairedAndOldRunDirectoriesRes
   EXPECT_NE(err.find("resume: removed 1 episode entry of summary.json"), std::string::npos) << err;
   EXPECT_NE(err.find("resume: removed 1 folder of episodes/"), std::string::npos) << err;
   expect_same_episodes(out / "full", cut_row, 3);
+  fs::remove_all(out);
+}
 
-  // A checkpoint of format 1 (no validation block, no checksum) from an older drops.
-  const fs::path old = out / "format1";
-  fs::copy(out / "base", old, fs::copy_options::recursive);
-  auto cp = nlohmann::json::parse(read_file(old / "checkpoint.json"));
-  cp.erase("validation");
-  cp.erase("checksum");
-  cp["format"] = 1;
-  write_file(old / "checkpoint.json", cp.dump());
-  ASSERT_EQ(run_drops("run --resume " + old.string() + " episodes=3 -q", &err), 0) << err;
-  expect_same_episodes(out / "full", old, 3);
-  // ... and writes format 2 from then on.
-  EXPECT_EQ(nlohmann::json::parse(read_file(old / "checkpoint.json"))["format"], 2);
-
-  // Format 1 with a row cut inside what the checkpoint covers: refused.
-  const fs::path old_cut = out / "format1-cut";
-  fs::copy(out / "base", old_cut, fs::copy_options::recursive);
-  write_file(old_cut / "checkpoint.json", cp.dump());
-  write_file(old_cut / "episodes.csv", cut(read_file(old_cut / "episodes.csv"), 12) + "\n");
-  EXPECT_EQ(run_drops("run --resume " + old_cut.string() + " episodes=3 -q", &err), 1);
-  EXPECT_NE(err.find(old_cut.string() + "/episodes.csv: row 2"), std::string::npos) << err;
+// drops writes run-directory format version 1 (format_version in summary.json and
+// checkpoint.json) and continues only that version: a directory whose checkpoint.json or
+// summary.json holds another version, or none (written before the format was versioned), is
+// refused with an error naming the file, the version found and the version this drops reads, and
+// is left as it was; the same directory with version 1 restored resumes.
+TEST(Faults, ARunDirectoryOfAnotherFormatVersionIsRefusedNamingTheFileAndTheVersions) {
+  const fs::path out = fresh_dir("faults", "version");
+  std::string err;
+  ASSERT_EQ(run_drops(kRun + " episodes=2 --output " + out.string() + " --name base -q", &err), 0)
+      << err;
+  for (const char* f : {"summary.json", "checkpoint.json"})
+    EXPECT_EQ(nlohmann::json::parse(read_file(out / "base" / f))["format_version"], 1) << f;
+  struct Case {
+    std::string name, file;
+    nlohmann::json version;  // null: the key is removed
+    std::string message;     // expected in the error, after the file's path
+  };
+  const std::vector<Case> cases = {
+      {"checkpoint-v2", "checkpoint.json", 2,
+       ": run-directory format version 2, but this drops reads version 1 only. Read or continue "
+       "the run with a drops that reads version 2, or run it again with this one"},
+      {"checkpoint-unversioned", "checkpoint.json", nullptr,
+       " has no format_version: the run directory was written by a drops from before its format "
+       "was versioned, and this drops reads run-directory format version 1 only"},
+      {"summary-v0", "summary.json", 0,
+       ": run-directory format version 0, but this drops reads version 1 only"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const fs::path dir = out / c.name;
+    fs::copy(out / "base", dir, fs::copy_options::recursive);
+    auto j = nlohmann::json::parse(read_file(dir / c.file));
+    if (c.version.is_null())
+      j.erase("format_version");
+    else
+      j["format_version"] = c.version;
+    write_file(dir / c.file, j.dump());
+    const std::string csv = read_file(dir / "episodes.csv"),
+                      summary = read_file(dir / "summary.json"),
+                      checkpoint = read_file(dir / "checkpoint.json");
+    EXPECT_EQ(run_drops("run --resume " + dir.string() + " episodes=3 -q", &err), 1) << err;
+    const std::string expected = (dir / c.file).string() + c.message;
+    EXPECT_NE(err.find(expected), std::string::npos) << "expected '" << expected << "' in: " << err;
+    EXPECT_EQ(read_file(dir / "episodes.csv"), csv);
+    EXPECT_EQ(read_file(dir / "summary.json"), summary);
+    EXPECT_EQ(read_file(dir / "checkpoint.json"), checkpoint);
+    EXPECT_FALSE(fs::exists(dir / "episodes/003"));
+  }
+  // The refusal is the version's: with version 1 back (the file as drops wrote it), it resumes.
+  const fs::path restored = out / "checkpoint-v2";
+  auto cp = nlohmann::json::parse(read_file(restored / "checkpoint.json"));
+  cp["format_version"] = 1;
+  write_file(restored / "checkpoint.json", cp.dump() + "\n");
+  ASSERT_EQ(read_file(restored / "checkpoint.json"), read_file(out / "base" / "checkpoint.json"));
+  EXPECT_EQ(run_drops("run --resume " + restored.string() + " episodes=3 -q", &err), 0) << err;
+  EXPECT_EQ(nlohmann::json::parse(read_file(restored / "summary.json"))["episodes_done"], 3);
   fs::remove_all(out);
 }
 

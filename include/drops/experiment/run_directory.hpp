@@ -4,17 +4,24 @@
 /// `drops report`, `drops plot`, the animations and, through the files `drops plot` writes, the
 /// Python plotting). The library's core never writes files; this is where runs become files.
 ///
+/// This is run-directory format version 1 (kRunDirectoryFormatVersion), the first released one;
+/// summary.json and checkpoint.json carry it as "format_version". This drops reads version 1 only:
+/// a run directory of another version, or without one (written before the format was versioned),
+/// is refused by --resume and by campaigns, and is "unreadable" to drops report and drops plot.
+///
 ///   <output>/<name>/
 ///     config.yaml                 resolved configuration (every key of the task's schema)
 ///     episodes.csv                one row per finished episode (appended and flushed at its end)
-///     summary.json                status, what the run is (task, algorithm, variant, panel),
-///                                 per-episode details (rewritten atomically after each episode)
+///     summary.json                format_version, status, what the run is (task, algorithm,
+///                                 variant, panel), per-episode details (rewritten atomically
+///                                 after each episode)
 ///     episodes/NNN/real.csv       real trajectory: t, states, actions, reward, the task's extras
 ///     episodes/NNN/predicted.csv  mean-propagated trajectory on the model that chose the policy
 ///     episodes/NNN/policy.csv     policy parameters theta (one per line)
-///     checkpoint.json             the algorithm's state after the last finished episode (--resume),
-///                                 with what it covers: the resolved configuration and SHA-256
-///                                 checksums of the recorded files and of itself (format 2)
+///     checkpoint.json             format_version, the algorithm's state after the last finished
+///                                 episode (--resume), with what it covers: the resolved
+///                                 configuration and SHA-256 checksums of the recorded files and
+///                                 of itself
 ///     archive.csv                 IT&E: the MAP-Elites archive (archive_file.hpp), saved with the
 ///                                 state that holds it, before checkpoint.json
 ///     archive_progress.csv        IT&E building its archive: coverage per MAP-Elites generation
@@ -40,6 +47,16 @@
 namespace drops::experiment {
 
 class Registry;
+
+/// The run-directory format this drops writes and reads ("format_version" of summary.json and
+/// checkpoint.json). Version 1 is the first released format.
+inline constexpr int kRunDirectoryFormatVersion = 1;
+
+/// Throws drops::Error when DIR/summary.json or DIR/checkpoint.json (each checked when present and
+/// parseable) does not carry "format_version" kRunDirectoryFormatVersion. The message names the
+/// file, the version found (or that there is none) and the version this drops reads, and says to
+/// use the drops that wrote the run or to run it again. Thread-safe.
+void check_run_directory_format(const std::filesystem::path& dir);
 
 /// Writes text to path through path.tmp and a rename, so a reader or a crash never sees a partial
 /// file. Throws drops::Error naming the file when it cannot be written or renamed.
@@ -96,15 +113,14 @@ class RunDirectory {
   /// session); config_yaml is to_yaml of its settings, written to DIR/config.yaml when it differs
   /// (so that the file says the new episode count and `drops run DIR/config.yaml` repeats the run).
   ///
-  /// Checks (checkpoint format 2, written since the checkpoint kept checksums): checkpoint.json's
-  /// own checksum; every key of the configuration the run was started with is in config.yaml with
-  /// the same value (episodes and threads aside); the first episodes_done rows of episodes.csv,
+  /// Checks: summary.json and checkpoint.json are of run-directory format version 1
+  /// (check_run_directory_format; drops::Error otherwise); checkpoint.json's own checksum; every
+  /// key of the configuration the run was started with is in config.yaml with the same value
+  /// (episodes and threads aside); the first episodes_done rows of episodes.csv,
   /// the first episodes_done entries of summary.json's "episodes" and every file of episodes/NNN
   /// up to episodes_done have the checksums recorded in the checkpoint; archive.csv, which carries
   /// its own MAP-Elites cursor and may be newer than the checkpoint, is checked by its reader
-  /// (RunDirectoryDamaged naming the file and line). A run directory written before (format 1)
-  /// gets structural checks: the rows and summary entries 1..episodes_done are present and whole;
-  /// its checksums are taken from the files as they are at this resume.
+  /// (RunDirectoryDamaged naming the file and line).
   ///
   /// Repairs (listed by repairs()): rows of episodes.csv after episodes_done (also a last row cut
   /// mid-line by a crash), summary entries of later episodes and episodes/NNN folders of later
@@ -117,7 +133,8 @@ class RunDirectory {
   /// *state is left untouched and has_checkpoint() is false (the caller runs the algorithm from
   /// the start); repairs() says so.
   ///
-  /// Throws drops::Error when DIR is not a run directory; RunDirectoryBusy when another process
+  /// Throws drops::Error when DIR is not a run directory or is of another format version;
+  /// RunDirectoryBusy when another process
   /// holds the lock; RunDirectoryDamaged naming the file when a check fails, or when
   /// checkpoint.json is missing although episodes are recorded (they are kept, the directory is
   /// not changed); ConfigError when the configuration differs from the one the run was started
@@ -212,7 +229,7 @@ struct RunResult {
   std::string status;
   std::string error;       ///< why a run is unreadable, or the error a failed run recorded
   std::string task;        ///< task name; empty when unknown
-  std::string algorithm;   ///< algorithm name ("black_drops" for runs written before it was recorded)
+  std::string algorithm;   ///< algorithm name; empty when unknown
   /// The algorithm's variant (model.type for Black-DROPS, the algorithm's name otherwise); empty
   /// when unknown.
   std::string model_type;
@@ -238,15 +255,16 @@ struct RunResult {
 
 /// Reads one run directory. A directory without summary.json gives status "not started" (its
 /// config.yaml is still read for the group, when present); a file that cannot be parsed gives
-/// status "unreadable" with the reason in `error`. What summary.json does not say (run
-/// directories written before it recorded the panel, variant and report information) comes from
-/// the task's plugin in `registry` applied to config.yaml, when the task is registered.
+/// status "unreadable" with the reason in `error`, and so does one of another run-directory
+/// format version (check_run_directory_format's message). The task, algorithm, variant, prior and
+/// report information come from the task's plugin in `registry` applied to config.yaml when the
+/// task is registered, from summary.json otherwise.
 /// Never throws for bad run files; throws drops::Error only when `dir` is not a directory.
 /// Thread-safe.
 RunResult read_run(const std::filesystem::path& dir, const Registry* registry);
 
 /// The state saved in DIR/checkpoint.json. Throws drops::Error naming the file when it is missing,
-/// malformed, of another format or (format 2) fails its own checksum (edited by hand).
+/// malformed, of another format version or fails its own checksum (edited by hand).
 algo::RunState read_checkpoint(const std::filesystem::path& dir);
 
 /// A trajectory file (episodes/NNN/real.csv or predicted.csv) read back: its column names and a
