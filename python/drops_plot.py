@@ -10,7 +10,9 @@ Every statistic is computed by the C++ side; this script only draws.
   drops_plot.py run PLOT_DATA_JSON OUTPUT_DIR
       returns.png, phi.png, the task metric's figure and trajectories-NNN.png of one run, from the
       plot-data.json that `drops plot` writes with drops's run-directory reader; with body
-      positions (x, y, yaw) also path-NNN.png, with foot heights gait-NNN.png.
+      positions (x, y, yaw) also path-NNN.png, with foot heights gait-NNN.png. Axes carry the
+      labels and units the task declared (plot-data.json "phi_labels", "columns", "metric"); a
+      quantity it did not declare is shown by its name, without a unit.
 
   drops_plot.py archive ARCHIVE_CSV OUTPUT_PNG
       An IT&E MAP-Elites archive (a run's archive.csv, or any file of that format): every cell of
@@ -45,18 +47,6 @@ COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#9467bd", "#ff7f0e", "#8c
 # The colours of the algorithms of paper §V (variant names of drops report), in COLORS' order.
 VARIANT_COLORS = {"gp_mi": "#1f77b4", "gp_prior": "#d62728", "mi": "#2ca02c", "gp": "#7f7f7f",
                   "ite": "#9467bd", "pilco": "#ff7f0e", "pilco_prior": "#17becf"}
-# Units of φ components named by a letter and a digit (m1, l2, b1: masses, lengths, friction), and
-# labels of known state columns.
-PHI_UNITS = {"m": "kg", "l": "m", "b": "N·m·s/rad"}
-STATE_LABELS = {
-    "theta1": (r"$\theta_1$", "rad"),
-    "theta2": (r"$\theta_2$", "rad"),
-    "dtheta1": (r"$\dot\theta_1$", "rad/s"),
-    "dtheta2": (r"$\dot\theta_2$", "rad/s"),
-    "u": (r"action $u$", "N·m"),
-    "reward": ("reward", None),
-}
-
 plt.rcParams.update({
     "font.size": 11,
     "axes.titlesize": 12,
@@ -240,9 +230,17 @@ def plot_returns(data, out):
     save(fig, os.path.join(out, "returns.png"))
 
 
-def phi_label(name):
-    unit = PHI_UNITS.get(name[:1]) if name[1:].isdigit() else None
-    return f"{name} ({unit})" if unit else name
+def with_unit(text, unit):
+    """'text (unit)', or the text alone without a unit."""
+    return f"{text} ({unit})" if unit else text
+
+
+def phi_label(data, name):
+    """The task's label and unit of φ component `name` (plot-data.json "phi_labels")."""
+    for entry in data.get("phi_labels", []):
+        if entry["name"] == name:
+            return with_unit(entry["text"], entry["unit"])
+    return name
 
 
 def plot_phi(data, out):
@@ -269,7 +267,7 @@ def plot_phi(data, out):
             values = [v for v, _ in data["phi_value_labels"]]
             ax.set_yticks(values)
             ax.set_yticklabels([label for _, label in data["phi_value_labels"]])
-        ax.set_title(phi_label(name))
+        ax.set_title(phi_label(data, name))
         ax.set_xlabel("episode")
         ax.margins(y=0.25)
         if len(k) <= 20:
@@ -300,7 +298,7 @@ def plot_metric(data, out):
         ax.axhline(m["reference"], color="gray", linestyle=":", linewidth=1.2,
                    label=m.get("reference_label", "reference"))
     ax.set_xlabel("episode")
-    ax.set_ylabel(f"{m['label']} ({m['unit']})")
+    ax.set_ylabel(with_unit(m["label"], m["unit"]))
     if len(k) <= 20:
         ax.set_xticks(k)
     ax.legend(loc="best", fontsize=9)
@@ -309,30 +307,44 @@ def plot_metric(data, out):
     save(fig, os.path.join(out, f"{m.get('file') or m['name']}.png"))
 
 
+def column_info(data, name):
+    """Kind (time, state, action, reward, extra), label with unit and whether the task labelled
+    trajectory column `name` (plot-data.json "columns"; a column it does not list: its name)."""
+    for c in data.get("columns", []):
+        if c["name"] == name:
+            return c["kind"], with_unit(c["text"], c["unit"]), bool(c.get("labelled"))
+    return {"t": "time", "reward": "reward"}.get(name, "state"), name, False
+
+
+def trajectory_columns(data, names):
+    """The columns a trajectory figure draws, in the file's order: states, actions, then the
+    reward; with more than 12 state and action columns (a legged robot), the states the task
+    labelled (e.g. the body's pose) and the reward."""
+    kind = {n: column_info(data, n)[0] for n in names}
+    states = [c for c in names if kind[c] == "state"]
+    actions = [c for c in names if kind[c] == "action"]
+    if len(states) + len(actions) > 12:
+        states = [c for c in states if column_info(data, c)[2]]
+        actions = []
+    return states + actions + [c for c in names if kind[c] == "reward"]
+
+
 def plot_trajectory(data, k, out):
     real, pred = episode_tables(data, k)
-    columns = [c for c in real.names if c != "t"]
-    if len(columns) > 12:
-        # Many state dimensions (a legged robot): the body's pose and forward velocity.
-        columns = [c for c, _ in BODY_COLUMNS if c in real]
-    else:
-        # States first, in the order angle, velocity; then action and reward.
-        states = [c for c in columns if c not in ("u", "reward")]
-        states.sort(key=lambda c: (c.startswith("d"), c))
-        columns = states + [c for c in ("u", "reward") if c in columns]
+    columns = trajectory_columns(data, real.names)
     ncols = 2
     nrows = math.ceil(len(columns) / ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(10, 2.6 * nrows), sharex=True, squeeze=False)
     for j, c in enumerate(columns):
         ax = axes[j // ncols][j % ncols]
-        label, unit = STATE_LABELS.get(c, dict(BODY_COLUMNS).get(c, (c, None)))
+        kind, label, _ = column_info(data, c)
         # Actions are held constant over a time step.
-        style = "steps-post" if c == "u" else "default"
+        style = "steps-post" if kind == "action" else "default"
         ax.plot(real["t"], real[c], color="#1f77b4", linewidth=1.8, label="real", drawstyle=style)
         if pred is not None and c in pred:
             ax.plot(pred["t"], pred[c], color="#ff7f0e", linestyle="--", linewidth=1.8,
                     label="predicted (model mean)", drawstyle=style)
-        ax.set_ylabel(f"{label} ({unit})" if unit else label)
+        ax.set_ylabel(label)
         if j // ncols == nrows - 1 or j + ncols >= len(columns):
             ax.set_xlabel("time (s)")
             ax.tick_params(labelbottom=True)
@@ -357,9 +369,6 @@ LEG_NAMES = ["0 rear-left", "1 mid-left", "2 front-left", "3 front-right", "4 mi
 # A foot touches the ground when its lowest point is within this height of the ground plane (m);
 # contacts let it sink a few mm, and the state is sampled every 0.1 s.
 CONTACT_HEIGHT = 0.005
-BODY_COLUMNS = [("x", ("body x", "m")), ("y", ("body y", "m")), ("z", ("body height z", "m")),
-                ("roll", ("roll", "rad")), ("pitch", ("pitch", "rad")), ("yaw", ("yaw", "rad")),
-                ("vx", ("forward velocity", "m/s")), ("reward", ("reward", None))]
 
 
 def plot_path(data, k, out):

@@ -16,6 +16,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/experiment/report.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "figures.hpp"
 #include "fixtures.hpp"
 
@@ -112,7 +113,7 @@ void fake_campaign(const fs::path& dir) {
   fake_run(runs, "gp_mi-tunable-useful-seed4", "gp_mi", "tunable-useful", 4, "failed", {4},
            {false});
   write(runs / "gp_mi-tunable-useful-seed5" / "config.yaml",
-        "seed: 5\nmodel:\n  type: gp_mi\nprior:\n  preset: tunable-useful\n");
+        "seed: 5\nmodel:\n  type: gp_mi\nprior:\n  preset: tunable-useful\n  tunable: [m1]\n");
   fake_run(runs, "gp-tunable-useful-seed1", "gp", "tunable-useful", 1, "complete", {0, 5, 8},
            {false, true, false});
   fake_run(runs, "gp-tunable-useful-seed2", "gp", "tunable-useful", 2, "complete", {1, 2, 9},
@@ -314,6 +315,7 @@ TEST(Report, GroupsFollowTableIOrderThenVariantOrder) {
   TempDir tmp;
   fake_campaign(tmp.path());
   const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
+  EXPECT_TRUE(rep.split_settings.empty());
   ASSERT_EQ(rep.groups.size(), 3u);
   EXPECT_EQ(rep.groups[0].variant + "/" + rep.groups[0].prior, "gp_mi/tunable-useful");
   EXPECT_EQ(rep.groups[1].variant + "/" + rep.groups[1].prior, "gp/tunable-useful");
@@ -343,6 +345,127 @@ TEST(Report, ExtraGridAxesSplitTheVariant) {
   EXPECT_DOUBLE_EQ(one.episodes[1].median, 3.0);  // {2, 4}
   const GroupReport& three = group(rep, "gp_mi rollouts.count=3", "tunable");
   EXPECT_DOUBLE_EQ(three.median_first_solve_episode, 1.0);
+}
+
+// Runs of one panel and variant whose task settings differ (a torque limit of 0.5 and 3 N m, in
+// a folder of plain `drops run` outputs, no campaign.yaml) are split into groups labelled by the
+// setting; 3 and 3.0 are one setting.
+TEST(Report, RunsWhoseTaskSettingsDifferAreSplitByTheSettingNotMerged) {
+  TempDir tmp;
+  const fs::path runs = tmp.path() / "runs";
+  fake_run(runs, "a", "gp_mi", "tunable", 1, "complete", {1, 2}, {false, true},
+           "pendubot:\n  max_torque: 0.5\n");
+  fake_run(runs, "b", "gp_mi", "tunable", 2, "complete", {3, 4}, {false, false},
+           "pendubot:\n  max_torque: 3.0\n");
+  fake_run(runs, "c", "gp_mi", "tunable", 3, "complete", {5, 6}, {true, true},
+           "pendubot:\n  max_torque: 3\n");
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
+  EXPECT_TRUE(rep.extra_axes.empty());
+  EXPECT_EQ(rep.split_settings, (std::vector<std::string>{"pendubot.max_torque"}));
+  ASSERT_EQ(rep.groups.size(), 2u);
+  const GroupReport& low = group(rep, "gp_mi pendubot.max_torque=0.5", "tunable");
+  EXPECT_EQ(low.runs, 1);
+  EXPECT_DOUBLE_EQ(low.median_final_return, 2.0);
+  const GroupReport& high = group(rep, "gp_mi pendubot.max_torque=3", "tunable");
+  EXPECT_EQ(high.runs, 2);
+  EXPECT_DOUBLE_EQ(high.median_final_return, 5.0);  // {4, 6}
+  write_report_markdown(rep, tmp.path() / "report.md");
+  const std::string md = read(tmp.path() / "report.md");
+  EXPECT_NE(md.find("differ in the task settings pendubot.max_torque"), std::string::npos) << md;
+  write_returns_csv(rep, tmp.path() / "returns.csv");
+  EXPECT_NE(
+      read(tmp.path() / "returns.csv").find("Black-DROPS with GP-MI, pendubot.max_torque=0.5"),
+      std::string::npos);
+
+  // Runs of another task in the same panel and variant are split by the task, not by the
+  // pendubot's settings they do not have.
+  write(runs / "z" / "summary.json",
+        nlohmann::json({{"task", "myrobot"},
+                        {"model", "gp_mi"},
+                        {"prior", "tunable"},
+                        {"status", "complete"},
+                        {"episodes", {{{"episode", 1}, {"real_return", 7.0}}}}})
+            .dump());
+  const CampaignReport two = aggregate_campaign(fixtures::registry(), tmp.path());
+  EXPECT_EQ(two.split_settings, (std::vector<std::string>{"pendubot.max_torque", "task"}));
+  EXPECT_EQ(group(two, "gp_mi task=myrobot", "tunable").runs, 1);
+  EXPECT_EQ(group(two, "gp_mi pendubot.max_torque=3 task=pendubot", "tunable").runs, 2);
+}
+
+// A direct search of the pendubot (config.yaml with algorithm: direct); `old` writes the report
+// block as summary.json held it before model-free runs had a panel of their own.
+void fake_direct_run(const fs::path& runs, const std::string& name, const std::string& preset,
+                     int seed, const std::vector<double>& returns, bool old) {
+  fake_run(runs, name, "gp", preset, seed, "complete", returns,
+           std::vector<bool>(returns.size(), false));
+  write(runs / name / "config.yaml",
+        "task: pendubot\nalgorithm: direct\nseed: " + std::to_string(seed) +
+            "\nprior:\n  preset: " + preset + "\n");
+  nlohmann::json s = nlohmann::json::parse(read(runs / name / "summary.json"));
+  s["model"] = "direct";
+  s["algorithm"] = "direct";
+  if (old)
+    s["report"] = {{"panel", {{"label", preset}, {"rank", 0}, {"title", "A tunable & useful"}}},
+                   {"metric", {{"name", ""}}}};
+  write(runs / name / "summary.json", s.dump());
+}
+
+// Direct runs use neither a model nor a prior: they get a panel of their own after the priors'
+// (also runs written before), whatever the prior.preset of their configuration, which does not
+// split them; Black-DROPS without a prior (gp) stays in the prior's panel.
+TEST(Report, DirectRunsGetAPanelOfTheirOwnNotAPriorsPanel) {
+  TempDir tmp;
+  const fs::path runs = tmp.path() / "runs";
+  fake_run(runs, "gp_mi-1", "gp_mi", "tunable-useful", 1, "complete", {1, 2}, {false, true});
+  fake_run(runs, "gp-1", "gp", "tunable-useful", 1, "complete", {1, 3}, {false, true});
+  fake_direct_run(runs, "direct-1", "tunable-useful", 1, {0, 1}, true);
+  fake_direct_run(runs, "direct-2", "tunable", 2, {0, 3}, false);
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
+  EXPECT_TRUE(rep.split_settings.empty());
+  ASSERT_EQ(rep.groups.size(), 3u);
+  EXPECT_EQ(rep.groups[0].variant + "/" + rep.groups[0].prior, "gp_mi/tunable-useful");
+  EXPECT_EQ(rep.groups[1].variant + "/" + rep.groups[1].prior, "gp/tunable-useful");
+  const GroupReport& d = rep.groups[2];
+  EXPECT_EQ(d.variant + "/" + d.prior, "direct/" + model_free_panel().label);
+  EXPECT_EQ(d.runs, 2);
+  write_returns_csv(rep, tmp.path() / "returns.csv");
+  auto ret = read_csv(tmp.path() / "returns.csv", 3);
+  EXPECT_EQ(ret.at("direct,no model,2").at("panel_title"), model_free_panel().title);
+  EXPECT_EQ(ret.at("direct,no model,2").at("median"), "2");
+  EXPECT_EQ(ret.count("direct,tunable-useful,2"), 0u);
+}
+
+// A task whose panel is what every run shares (the hexapod's damage) keeps its direct runs in it.
+TEST(Report, ModelFreeRunsKeepAPanelNotChosenByThePrior) {
+  ReportInfo damage;
+  damage.panel = {"leg5 removed", 1, "real robot: leg5 removed", false};
+  EXPECT_EQ(run_report_info(damage, false, false).panel.label, "leg5 removed");
+  ReportInfo prior;
+  prior.panel = {"tunable", 1, "B tunable", true};
+  EXPECT_EQ(run_report_info(prior, false, false).panel.label, "no model");
+  EXPECT_EQ(run_report_info(prior, false, true).panel.label, "tunable");  // gp: a model
+  EXPECT_EQ(run_report_info(prior, true, true).panel.label, "tunable");
+}
+
+// What a new run directory records for reports: the panel (its own for a direct search), the
+// task's labels and units, the state and action column names.
+TEST(Report, RunDirectoryRecordsLabelsUnitsColumnsAndTheModelFreePanel) {
+  TempDir tmp;
+  for (const std::string algorithm : {"black_drops", "direct"}) {
+    const Experiment e = fixtures::experiment({"algorithm=" + algorithm, "episodes=1"});
+    const fs::path dir = tmp.path() / algorithm;
+    { RunDirectory rd(dir, to_yaml(fixtures::registry(), e.settings), e); }
+    const auto s = nlohmann::json::parse(read(dir / "summary.json"));
+    EXPECT_EQ(s.at("uses_model").get<bool>(), algorithm != "direct");
+    EXPECT_EQ(s.at("action_names"), nlohmann::json::array({"u"}));
+    EXPECT_EQ(s.at("state_names").size(), 4u);
+    EXPECT_EQ(s.at("report").at("phi_labels").at("m1").at("unit"), "kg");
+    EXPECT_EQ(s.at("report").at("column_labels").at("u").at("unit"), "N·m");
+    const RunResult r = read_run(dir, &fixtures::registry());
+    EXPECT_EQ(r.report.panel.label, algorithm == "direct" ? "no model" : "tunable-useful");
+    EXPECT_EQ(r.report.column_labels.at("theta1").unit, "rad");
+    EXPECT_EQ(r.action_names, (std::vector<std::string>{"u"}));
+  }
 }
 
 // A hexapod run directory: config.yaml with the damage, summary.json with the walking speed and
@@ -630,6 +753,79 @@ void fake_trajectory(const fs::path& file) {
 
 }  // namespace
 
+// Two runs for the labels of `drops plot`, their plot-data.json written into `dir`:
+//   pendubot.json: a pendubot run written before summary.json held labels and column names (its
+//                  labels come from config.yaml through the registered task, its action column is
+//                  the one empty on the last row only);
+//   own.json:      a robot of one's own whose task declares no labels (not registered here):
+//                  summary.json names its columns q, dq (states) and u_1 (action), phi m1 and k.
+fs::path label_fixtures(const fs::path& dir) {
+  fake_campaign(dir);
+  const fs::path run = dir / "runs" / "gp_mi-tunable-seed1";
+  fake_trajectory(run / "episodes" / "002" / "real.csv");
+  write_plot_data(read_run(run, &fixtures::registry()), {2}, dir / "pendubot.json");
+  const fs::path own = dir / "own";
+  nlohmann::json eps = nlohmann::json::array();
+  for (int k = 1; k <= 2; ++k)
+    eps.push_back({{"episode", k},
+                   {"interaction_time_s", 3.0 * k},
+                   {"real_return", 1.5 * k},
+                   {"solved", false},
+                   {"phi", {0.5 * k, 2.0}}});
+  write(own / "summary.json", nlohmann::json({{"task", "myrobot"},
+                                              {"algorithm", "black_drops"},
+                                              {"model", "gp_mi"},
+                                              {"uses_prior", true},
+                                              {"prior", "p0"},
+                                              {"status", "complete"},
+                                              {"phi_names", {"m1", "k"}},
+                                              {"phi_actual", {1.0, 2.0}},
+                                              {"state_names", {"q", "dq"}},
+                                              {"action_names", {"u_1"}},
+                                              {"episodes", eps}})
+                                  .dump());
+  std::ostringstream csv;
+  csv << "t,q,dq,u_1,reward\n";
+  for (int i = 0; i <= 20; ++i) {
+    csv << 0.1 * i << ',' << std::sin(0.3 * i) << ',' << 0.3 * std::cos(0.3 * i) << ',';
+    if (i < 20) csv << (i % 7 < 3 ? 0.8 : -0.4);
+    csv << ',';
+    if (i > 0) csv << 0.05 * i;
+    csv << '\n';
+  }
+  for (const char* k : {"001", "002"}) write(own / "episodes" / k / "real.csv", csv.str());
+  write_plot_data(read_run(own, &fixtures::registry()), {2}, dir / "own.json");
+  return own;
+}
+
+nlohmann::json plot_column(const nlohmann::json& data, const std::string& name) {
+  for (const auto& c : data.at("columns"))
+    if (c.at("name") == name) return c;
+  return nullptr;
+}
+
+TEST(Plot, PlotDataCarriesTheTasksLabelsAndUnitsAndOnlyNamesForATaskThatDeclaresNone) {
+  TempDir tmp;
+  label_fixtures(tmp.path());
+  const auto p = nlohmann::json::parse(read(tmp.path() / "pendubot.json"));
+  EXPECT_EQ(plot_column(p, "u").at("kind"), "action");
+  EXPECT_EQ(plot_column(p, "u").at("unit"), "N·m");
+  EXPECT_EQ(plot_column(p, "theta1").at("kind"), "state");
+  EXPECT_EQ(plot_column(p, "theta1").at("text"), "θ₁");
+  EXPECT_EQ(plot_column(p, "reward").at("kind"), "reward");
+  EXPECT_EQ(plot_column(p, "t").at("kind"), "time");
+  EXPECT_EQ(p.at("phi_labels").at(0).at("unit"), "kg");  // m1
+
+  const auto o = nlohmann::json::parse(read(tmp.path() / "own.json"));
+  EXPECT_EQ(plot_column(o, "u_1").at("kind"), "action");
+  EXPECT_EQ(plot_column(o, "u_1").at("text"), "u_1");
+  EXPECT_EQ(plot_column(o, "u_1").at("unit"), "");
+  EXPECT_EQ(plot_column(o, "dq").at("kind"), "state");
+  // m1 is one of the pendubot's names, not a mass of this task: no unit.
+  EXPECT_EQ(o.at("phi_labels").at(0),
+            nlohmann::json({{"name", "m1"}, {"text", "m1"}, {"unit", ""}, {"labelled", false}}));
+}
+
 TEST(Figures, ReportAndRunFiguresAreWrittenAsPng) {
   if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
   TempDir tmp;
@@ -665,4 +861,31 @@ TEST(Figures, HexapodReportAddsTheWalkingSpeedFigure) {
   EXPECT_TRUE(is_png(tmp.path() / "out" / "returns.png"));
   EXPECT_TRUE(fs::exists(tmp.path() / "out" / "speed.csv"));
   EXPECT_EQ(files.size(), 7u);  // report.md, 4 CSV files, 2 figures
+}
+
+// drops_plot.py labels axes with what plot-data.json says, nothing of its own: the pendubot's
+// units where the pendubot declares them, names without units for a task that declares none.
+TEST(Figures, ThePlotScriptLabelsWhatTheTaskDeclaredAndNothingElse) {
+  if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
+  TempDir tmp;
+  const fs::path own = label_fixtures(tmp.path());
+  const fs::path check = tmp.path() / "check.py";
+  write(check, "import json, sys\nsys.path.insert(0, \"" + std::string(DROPS_TEST_PYTHON_DIR) +
+                   "\")\np = json.load(open(\"" + (tmp.path() / "pendubot.json").string() +
+                   "\"))\no = json.load(open(\"" + (tmp.path() / "own.json").string() + "\"))\n" +
+                   R"py(import drops_plot as d
+def same(a, b):
+    if a != b:
+        sys.exit(f"{a!r} != {b!r}")
+same(d.column_info(p, "u"), ("action", "torque u (N·m)", True))
+same(d.column_info(p, "dtheta1")[1], "dθ₁/dt (rad/s)")
+same(d.phi_label(p, "m1"), "m1 (kg)")
+same(d.column_info(o, "u_1"), ("action", "u_1", False))
+same(d.phi_label(o, "m1"), "m1")
+same(d.trajectory_columns(o, ["t", "q", "dq", "u_1", "reward"]), ["q", "dq", "u_1", "reward"])
+)py");
+  EXPECT_EQ(std::system(("/usr/bin/python3 " + check.string()).c_str()), 0);
+  const auto files = plot_run(fixtures::registry(), own, "2", tmp.path() / "own-plots");
+  for (const char* f : {"returns.png", "phi.png", "trajectories-002.png"})
+    EXPECT_TRUE(is_png(tmp.path() / "own-plots" / f)) << f;
 }

@@ -136,7 +136,8 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
       if (with_metric) {
         run_plot_script({"report", (out_dir / (stem + ".csv")).string(),
                          (out_dir / (stem + ".png")).string(), "--ylabel",
-                         metric.label + " (" + metric.unit + ")"},
+                         (metric.label.empty() ? metric.name : metric.label) +
+                             (metric.unit.empty() ? "" : " (" + metric.unit + ")")},
                         "drops report");
         files.push_back(out_dir / (stem + ".png"));
       }
@@ -200,6 +201,11 @@ int report_main(const Registry& registry, const ReportArgs& args) {
     if (r.status == "unreadable")
       fmt::print(stderr, "drops report: warning: {} is unreadable ({}); left out\n", r.dir.string(),
                  r.error);
+  for (const auto& key : report.split_settings)
+    fmt::print(stderr,
+               "drops report: note: runs of one panel and variant differ in {0}: their groups are "
+               "split by its value (variants \"<variant> {0}=<value>\")\n",
+               key);
   const fs::path out =
       args.output.empty() ? fs::path(args.campaign_dir) / "report" : fs::path(args.output);
   const std::vector<fs::path> files = write_report(report, out, !args.no_figures);

@@ -73,6 +73,13 @@ class CartPolePlugin final : public drops::experiment::TaskPlugin {
     r.panel.label = "prior " + prior_label(st);
     r.panel.title = "prior pole length " + st.at("cartpole.prior.pole_length") + " m";
     r.phi_tunable = {"pole_length"};
+    // How figures label phi and the trajectory columns (a name without a label is shown as is).
+    r.phi_labels["pole_length"] = {"pole length", "m"};
+    r.column_labels = {{"x", {"cart position", "m"}},
+                       {"dx", {"cart velocity", "m/s"}},
+                       {"theta", {"pole angle", "rad"}},
+                       {"dtheta", {"pole velocity", "rad/s"}},
+                       {"force", {"force on the cart", "N"}}};
     return r;
   }
 };

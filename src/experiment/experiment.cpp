@@ -137,6 +137,7 @@ class DirectPlugin final : public AlgorithmPlugin {
              "centre of the box, not evaluated on its own)"}};
   }
   bool uses_prior(const Settings&) const override { return false; }
+  bool uses_model(const Settings&) const override { return false; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
     algo::DirectSearchOptions o;
     o.seed = static_cast<std::uint64_t>(get_int(s, "seed"));
@@ -294,9 +295,23 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
   e.name = st.at("name");
   e.variant = algorithm.variant(st);
   e.setup = task.make(st);
-  e.report = task.report_info(st);
+  // Trajectory columns of a task that does not name them.
+  const auto generic = [&e](std::vector<std::string>& names, const char* symbol, int dim) {
+    if (names.empty())
+      for (int i = 1; i <= dim; ++i) names.push_back(symbol + std::string("_") + std::to_string(i));
+    if (names.size() != static_cast<std::size_t>(dim))
+      throw InvalidArgument("task '" + e.task + "': expected " + std::to_string(dim) + " " +
+                            symbol + " column names (TaskSetup), got " +
+                            std::to_string(names.size()));
+  };
+  if (e.setup.task) {
+    generic(e.setup.state_names, "x", e.setup.task->state_dim());
+    generic(e.setup.action_names, "u", e.setup.task->action_dim());
+  }
   e.runner = algorithm.make(st, e.setup);
   e.uses_prior = algorithm.uses_prior(st);
+  e.uses_model = algorithm.uses_model(st);
+  e.report = run_report_info(task.report_info(st), e.uses_prior, e.uses_model);
   return e;
 }
 

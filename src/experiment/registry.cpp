@@ -23,6 +23,24 @@ algo::Problem TaskSetup::problem() const {
   return p;
 }
 
+bool TaskPlugin::is_prior_key(const std::string& key) const {
+  return key.rfind("prior.", 0) == 0 || key.rfind(name() + ".prior.", 0) == 0;
+}
+
+Panel model_free_panel() {
+  Panel p;
+  p.label = "no model";
+  p.rank = 1000;  // after the task's panels
+  p.title = "no model or prior: search on the real system";
+  p.chosen_by_prior = false;
+  return p;
+}
+
+ReportInfo run_report_info(ReportInfo task, bool uses_prior, bool uses_model) {
+  if (!uses_prior && !uses_model && task.panel.chosen_by_prior) task.panel = model_free_panel();
+  return task;
+}
+
 void Registry::add_task(std::unique_ptr<TaskPlugin> task) {
   if (!task) throw InvalidArgument("Registry::add_task: null task");
   const std::string name = task->name();

@@ -50,6 +50,10 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
   return s;
 }
 
+std::string label_with_unit(const std::string& label, const std::string& unit) {
+  return unit.empty() ? label : label + " (" + unit + ")";
+}
+
 std::string panel_title(const GroupReport& g) {
   return g.report.panel.title.empty() ? g.prior : g.report.panel.title;
 }
@@ -296,6 +300,35 @@ CampaignReport aggregate_campaign(const Registry& registry, const fs::path& camp
     for (std::size_t r = 0; r < report.runs.size(); ++r)
       report.runs[r].variant += " " + axes[a] + "=" + values[r][a];
   }
+  // The task and its resolved settings (e.g. a torque limit) in which runs of one panel and model
+  // differ, outside the grid axes: the groups are split by them too, never merged without a word.
+  // Settings are compared between runs of the same task only.
+  std::set<std::string> keys = {"task"};
+  for (const auto& r : report.runs)
+    for (const auto& [k, v] : r.task_settings) keys.insert(k);
+  auto value_of = [](const RunResult& r, const std::string& key) -> const std::string* {
+    if (key == "task") return r.task.empty() ? nullptr : &r.task;
+    const auto it = r.task_settings.find(key);
+    return it == r.task_settings.end() ? nullptr : &it->second;
+  };
+  for (const auto& key : keys) {
+    if (std::find(report.extra_axes.begin(), report.extra_axes.end(), key) !=
+        report.extra_axes.end())
+      continue;
+    std::map<std::tuple<std::string, std::string, std::string>, std::set<std::string>> seen;
+    bool splits = false;
+    for (const auto& r : report.runs) {
+      const std::string* v = value_of(r, key);
+      if (r.status == "unreadable" || !v) continue;
+      auto& s = seen[{r.model_type, r.report.panel.label, key == "task" ? "" : r.task}];
+      s.insert(*v);
+      splits = splits || s.size() > 1;
+    }
+    if (!splits) continue;
+    report.split_settings.push_back(key);
+    for (auto& r : report.runs)
+      if (const std::string* v = value_of(r, key)) r.variant += " " + key + "=" + *v;
+  }
   report.groups = aggregate_runs(report.runs);
   return report;
 }
@@ -496,6 +529,12 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
   if (!report.extra_axes.empty())
     t += fmt::format("Variants are split by the campaign grid axes {}.\n",
                      join(report.extra_axes, ", "));
+  if (!report.split_settings.empty())
+    t += fmt::format(
+        "**Runs of one panel and variant differ in the task settings {}: their groups "
+        "are split by {}.**\n",
+        join(report.split_settings, ", "),
+        report.split_settings.size() == 1 ? "its value" : "their values");
 
   const bool success = std::any_of(report.groups.begin(), report.groups.end(),
                                    [](const GroupReport& g) { return g.report.success_criterion; });
@@ -503,9 +542,11 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
   for (const auto& g : report.groups)
     if (g.has_metric() && !with_metric) with_metric = &g;
   const std::string metric_head =
-      with_metric ? fmt::format(" median final {} ({}) |", with_metric->report.metric.label,
-                                with_metric->report.metric.unit)
-                  : "";
+      with_metric
+          ? " median final " +
+                label_with_unit(with_metric->report.metric.label, with_metric->report.metric.unit) +
+                " |"
+          : "";
   // A task without a success criterion shows the final return and metric only.
   t += "\n## Summary\n\n| variant | panel | runs | complete |" +
        std::string(success ? " solved at least once | solved at last episode | median first "
@@ -545,8 +586,9 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
   if (with_metric) {
     std::string label = with_metric->report.metric.label;
     if (!label.empty()) label[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(label[0])));
-    t += fmt::format("\n## {} per episode ({}): median [25th, 75th percentile]\n", label,
-                     with_metric->report.metric.unit);
+    const std::string& unit = with_metric->report.metric.unit;
+    t += fmt::format("\n## {} per episode{}: median [25th, 75th percentile]\n", label,
+                     unit.empty() ? "" : " (" + unit + ")");
     t += episode_tables(
         report, [](const GroupReport& g) { return g.has_metric(); },
         [](const EpisodeStats& e) { return e.metric; }, 3);
@@ -728,20 +770,69 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
   }
   nlohmann::json labels = nlohmann::json::array();
   for (const auto& [v, l] : run.report.phi_value_labels) labels.push_back({v, l});
+  // How the figures name each quantity: the task's label and unit, else the name and no unit.
+  auto label = [](const std::map<std::string, Label>& labels, const std::string& name) {
+    const auto it = labels.find(name);
+    const bool known = it != labels.end();
+    return nlohmann::json{{"name", name},
+                          {"text", known && !it->second.text.empty() ? it->second.text : name},
+                          {"unit", known ? it->second.unit : ""},
+                          {"labelled", known}};
+  };
+  nlohmann::json phi_labels = nlohmann::json::array();
+  for (const auto& n : run.phi_names) phi_labels.push_back(label(run.report.phi_labels, n));
+  // The role of each trajectory column: time, state, action, reward or extra (after the reward).
+  // Runs written before summary.json named the state and action columns: the actions are the
+  // columns before the reward that are empty on the last row only (no action follows the last
+  // state).
+  nlohmann::json columns = nlohmann::json::array();
+  if (!episodes.empty()) {
+    const TrajectoryTable t = read_trajectory_csv(
+        run.dir / "episodes" / fmt::format("{:03d}", episodes.front()) / "real.csv");
+    auto in = [](const std::vector<std::string>& v, const std::string& n) {
+      return std::find(v.begin(), v.end(), n) != v.end();
+    };
+    bool after_reward = false;
+    for (std::size_t i = 0; i < t.columns.size(); ++i) {
+      const std::string& c = t.columns[i];
+      std::string kind;
+      if (c == "t" && i == 0) {
+        kind = "time";
+      } else if (c == "reward" && !after_reward) {
+        kind = "reward";
+        after_reward = true;
+      } else if (after_reward) {
+        kind = "extra";
+      } else if (!run.state_names.empty() || !run.action_names.empty()) {
+        kind = in(run.action_names, c) ? "action" : "state";
+      } else {
+        const bool last_empty = !t.rows.empty() && std::isnan(t.rows.back()[i]);
+        const bool first_set = !t.rows.empty() && !std::isnan(t.rows.front()[i]);
+        kind = t.rows.size() > 1 && last_empty && first_set ? "action" : "state";
+      }
+      nlohmann::json col = label(run.report.column_labels, c);
+      col["kind"] = kind;
+      if (c == "t" && !col["labelled"].get<bool>()) col.update({{"text", "time"}, {"unit", "s"}});
+      columns.push_back(col);
+    }
+  }
   const nlohmann::json j = {
       {"name", run.name},
       {"task", run.task},
       {"variant", run.model_type},
       {"variant_label", variant_long_name(run.model_type)},
-      {"panel_title", run.report.panel.title.empty() ? run.report.panel.label
-                                                     : run.report.panel.title},
+      {"panel_title",
+       run.report.panel.title.empty() ? run.report.panel.label : run.report.panel.title},
       {"phi_names", run.phi_names},
       {"phi_actual", run.phi_actual},
       {"phi_plotted", plotted_phi_names(run)},
       {"phi_value_labels", labels},
+      {"phi_labels", phi_labels},
+      {"columns", columns},
       {"metric",
        {{"name", run.report.metric.name},
-        {"label", run.report.metric.label},
+        {"label",
+         run.report.metric.label.empty() ? run.report.metric.name : run.report.metric.label},
         {"unit", run.report.metric.unit},
         {"file", run.report.metric.file},
         {"predicted", run.report.metric.predicted},

@@ -87,11 +87,30 @@ nlohmann::json runs_json(const opt::CmaesSummary& search) {
   return runs;
 }
 
+nlohmann::json labels_json(const std::map<std::string, Label>& labels) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [name, l] : labels) j[name] = {{"text", l.text}, {"unit", l.unit}};
+  return j;
+}
+
+std::map<std::string, Label> labels_from_json(const nlohmann::json& j) {
+  std::map<std::string, Label> labels;
+  for (const auto& [name, l] : j.items())
+    labels[name] = {l.value("text", std::string()), l.value("unit", std::string())};
+  return labels;
+}
+
 nlohmann::json report_json(const ReportInfo& r) {
   nlohmann::json labels = nlohmann::json::array();
   for (const auto& [v, l] : r.phi_value_labels) labels.push_back({v, l});
   return {{"phi_tunable", r.phi_tunable},
-          {"panel", {{"label", r.panel.label}, {"rank", r.panel.rank}, {"title", r.panel.title}}},
+          {"phi_labels", labels_json(r.phi_labels)},
+          {"column_labels", labels_json(r.column_labels)},
+          {"panel",
+           {{"label", r.panel.label},
+            {"rank", r.panel.rank},
+            {"title", r.panel.title},
+            {"chosen_by_prior", r.panel.chosen_by_prior}}},
           {"metric",
            {{"name", r.metric.name},
             {"label", r.metric.label},
@@ -149,12 +168,18 @@ std::string plural(std::size_t n, const char* word) {
   return fmt::format("{} {}{}", n, word, n == 1 ? "" : "s");
 }
 
-ReportInfo report_from_json(const nlohmann::json& j) {
+/// The report block of summary.json; what it does not hold (written before the entry existed)
+/// comes from `known` (the task plugin's report_info of config.yaml, when the task is known).
+ReportInfo report_from_json(const nlohmann::json& j, const ReportInfo& known) {
   ReportInfo r;
   const auto& p = j.at("panel");
   r.panel.label = p.value("label", std::string());
   r.panel.rank = p.value("rank", 0);
   r.panel.title = p.value("title", std::string());
+  r.panel.chosen_by_prior = p.value("chosen_by_prior", known.panel.chosen_by_prior);
+  r.phi_labels = j.contains("phi_labels") ? labels_from_json(j["phi_labels"]) : known.phi_labels;
+  r.column_labels =
+      j.contains("column_labels") ? labels_from_json(j["column_labels"]) : known.column_labels;
   const auto& m = j.at("metric");
   r.metric.name = m.value("name", std::string());
   r.metric.label = m.value("label", std::string());
@@ -307,12 +332,15 @@ void RunDirectory::start(const std::string& config_yaml) {
               {"algorithm", e.algorithm},
               {"model", e.variant},
               {"uses_prior", e.uses_prior},
+              {"uses_model", e.uses_model},
               {"prior", e.setup.prior_label},
               {"report", report_json(e.report)},
               {"seed", e.seed},
               {"episodes_planned", e.runner->episodes()},
               {"phi_names", p.names},
               {"phi_actual", e.setup.phi_actual},
+              {"state_names", e.setup.state_names},
+              {"action_names", e.setup.action_names},
               {"started", now_iso()},
               {"episodes", nlohmann::json::array()}};
   write_summary("running");
@@ -961,9 +989,23 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
     const AlgorithmPlugin& algorithm = registry->algorithm(run.algorithm);
     run.model_type = algorithm.variant(config);
     run.uses_prior = algorithm.uses_prior(config);
+    run.uses_model = algorithm.uses_model(config);
     const TaskPlugin& task = registry->task(run.task);
     run.prior = task.prior_label(config);
     run.report = task.report_info(config);
+    for (const auto& k : task.keys()) {
+      if (!run.uses_prior && task.is_prior_key(k.key)) continue;
+      std::string v = config.at(k.key);
+      if (k.type == "double" || k.type == "int") {  // 3 and 3.0 are one setting
+        try {
+          std::size_t used = 0;
+          const double x = std::stod(v, &used);
+          if (used == v.size()) v = fmt::format("{}", x);
+        } catch (const std::exception&) {
+        }
+      }
+      run.task_settings[k.key] = v;
+    }
     try {
       run.seed = get_int(config, "seed");
     } catch (const std::exception&) {
@@ -982,9 +1024,12 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
       if (run.task.empty()) run.task = s.value("task", std::string());
       if (run.algorithm.empty()) run.algorithm = s.value("algorithm", std::string());
       if (run.model_type.empty()) run.model_type = s.value("model", std::string());
-      if (!have_config) run.uses_prior = s.value("uses_prior", run.model_type != "gp");
+      if (!have_config) {
+        run.uses_prior = s.value("uses_prior", run.model_type != "gp");
+        run.uses_model = s.value("uses_model", true);
+      }
       if (run.prior.empty()) run.prior = s.value("prior", std::string());
-      if (s.contains("report")) run.report = report_from_json(s["report"]);
+      if (s.contains("report")) run.report = report_from_json(s["report"], run.report);
       if (run.report.panel.label.empty()) run.report.panel.label = run.prior;
       if (run.seed < 0 && s.contains("seed") && s["seed"].is_number_integer())
         run.seed = s["seed"].get<std::int64_t>();
@@ -993,6 +1038,10 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
       if (s.contains("phi_actual"))
         for (const auto& v : s["phi_actual"])
           run.phi_actual.push_back(v.is_number() ? v.get<double>() : kNaN);
+      if (s.contains("state_names"))
+        run.state_names = s["state_names"].get<std::vector<std::string>>();
+      if (s.contains("action_names"))
+        run.action_names = s["action_names"].get<std::vector<std::string>>();
       static const std::vector<std::string> kEpisodeKeys = {
           "episode", "interaction_time_s", "real_return", "predicted_return", "solved",
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
@@ -1034,6 +1083,8 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
     }
   }
   run.solved = run.first_solved_episode.has_value();
+  // Also for runs written before the panel of a model-free run was its own.
+  run.report = run_report_info(std::move(run.report), run.uses_prior, run.uses_model);
 
   run.variant = run.model_type;
   return run;

@@ -22,12 +22,13 @@ struct Experiment {
   std::string algorithm;      ///< algorithm name
   std::string variant;        ///< AlgorithmPlugin::variant (e.g. "gp_mi")
   bool uses_prior = true;     ///< AlgorithmPlugin::uses_prior
+  bool uses_model = true;     ///< AlgorithmPlugin::uses_model
   std::uint64_t seed = 1;
   int threads = 0;            ///< 0 = all hardware threads
   std::string output = "runs";
   std::string name;           ///< run directory name ("" = default_run_name())
   TaskSetup setup;
-  ReportInfo report;          ///< TaskPlugin::report_info of the settings
+  ReportInfo report;          ///< run_report_info of TaskPlugin::report_info of the settings
   std::unique_ptr<algo::Algorithm> runner;  ///< the configured algorithm
   /// "<task>-<variant>-<prior>-seed<seed>" (without the prior when the algorithm uses none),
   /// followed by "-" and `stamp` when not empty.

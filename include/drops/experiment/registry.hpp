@@ -42,6 +42,18 @@ struct Panel {
   std::string label;  ///< e.g. "tunable-useful" or "leg5 removed"
   int rank = 0;
   std::string title;  ///< the figure's panel title, e.g. "A: tunable & useful" (empty: label)
+  /// Whether the panel is the run's starting prior (e.g. the priors of the paper's Table I). A
+  /// run that uses neither a model nor the prior (a direct search) is then drawn in a panel of
+  /// its own (model_free_panel()), not under a prior it does not use. False when the panel
+  /// describes what every run of it shares whatever the algorithm, e.g. the real robot's damage:
+  /// such runs stay in it.
+  bool chosen_by_prior = true;
+};
+
+/// How figures and tables name a quantity (a component of phi, a trajectory column).
+struct Label {
+  std::string text;  ///< e.g. "θ₁" or "torque u" (plain Unicode text; empty: the name itself)
+  std::string unit;  ///< e.g. "rad", "N·m" (empty: shown without a unit)
 };
 
 /// How reports show the runs of a task (TaskPlugin::report_info), recorded in each run's
@@ -56,7 +68,22 @@ struct ReportInfo {
   std::map<double, std::string> phi_value_labels;
   /// Names of the tunable entries of phi (the plots draw them even when they never change).
   std::vector<std::string> phi_tunable;
+  /// Labels and units of phi's entries, by name (TaskSetup::prior_parameters.names). An entry
+  /// without one is shown by its name, without a unit.
+  std::map<std::string, Label> phi_labels;
+  /// Labels and units of the trajectory columns, by name (TaskSetup::state_names, action_names,
+  /// state_extra_names). A column without one is shown by its name, without a unit. Figures of a
+  /// trajectory with more than 12 state and action columns draw only the labelled states.
+  std::map<std::string, Label> column_labels;
 };
+
+/// The panel of runs that use neither a model nor the task's prior when the task's panels are
+/// chosen by the prior (Panel::chosen_by_prior): label "no model", drawn after the task's panels.
+Panel model_free_panel();
+/// The report information of one run: `task` (TaskPlugin::report_info of its settings) with the
+/// panel replaced by model_free_panel() when the run uses neither a model nor the prior and the
+/// task's panel is chosen by the prior. Thread-safe.
+ReportInfo run_report_info(ReportInfo task, bool uses_prior, bool uses_model);
 
 /// Everything an experiment needs about its task, built by TaskPlugin::make.
 struct TaskSetup {
@@ -67,7 +94,8 @@ struct TaskSetup {
   model::PriorParameters prior_parameters;   ///< starting phi, tunable set and bounds
   std::vector<double> phi_actual;  ///< the real system's phi in the prior's parametrisation (reports)
   std::string prior_label;         ///< short name of the starting prior (run names, summaries)
-  /// Column names of the trajectory files: state (dim E) and action (dim U).
+  /// Column names of the trajectory files: state (dim E) and action (dim U). Left empty,
+  /// make_experiment names them x_1..x_E and u_1..u_U.
   std::vector<std::string> state_names, action_names;
   /// Names of the task's per-episode metrics, appended to episodes.csv and summary.json (may be
   /// empty). metrics(record) returns one value per name; it is called once per episode, in order,
@@ -117,6 +145,10 @@ class TaskPlugin {
   virtual std::string prior_label(const Settings& settings) const = 0;
   /// How reports show a run of these settings, without building anything.
   virtual ReportInfo report_info(const Settings& settings) const = 0;
+  /// Whether `key` (one of keys()) sets only the simulator prior (its parameters, bounds, tunable
+  /// set): reports do not tell runs that use no prior apart by such keys. Default: the keys that
+  /// start with "prior." or "<name>.prior.".
+  virtual bool is_prior_key(const std::string& key) const;
 };
 
 /// An algorithm: its configuration section and the factory of an algo::Algorithm.
@@ -133,6 +165,12 @@ class AlgorithmPlugin {
   virtual std::string variant(const Settings& settings) const { (void)settings; return name(); }
   /// Whether runs use the task's simulator prior (run names then carry the prior's label).
   virtual bool uses_prior(const Settings& settings) const = 0;
+  /// Whether runs learn or use a model of the system (false for a search on the real system
+  /// alone, which reports then draw in a panel of its own; see Panel::chosen_by_prior).
+  virtual bool uses_model(const Settings& settings) const {
+    (void)settings;
+    return true;
+  }
   /// Builds the algorithm for validated settings and the built task. Throws ConfigError naming
   /// the key on invalid combinations.
   virtual std::unique_ptr<algo::Algorithm> make(const Settings& settings,

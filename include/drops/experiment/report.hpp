@@ -98,6 +98,10 @@ struct CampaignReport {
   /// more than one value (other than seed, algorithm, model.type and task) in which runs of the
   /// same panel and model differ.
   std::vector<std::string> extra_axes;
+  /// Settings outside extra_axes that split the variants the same way: "task" and the task's
+  /// own keys (RunResult::task_settings) in which runs of the same task, panel and model differ,
+  /// e.g. a torque limit. Runs are never merged across them.
+  std::vector<std::string> split_settings;
   std::vector<RunResult> runs;      ///< every run directory, sorted by name
   std::vector<GroupReport> groups;  ///< by panel (rank, label), then variant
 };
@@ -113,7 +117,8 @@ int variant_rank(const std::string& model_type);
 std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs);
 
 /// Reads every run directory of a campaign (CAMPAIGN_DIR/runs/*, or CAMPAIGN_DIR/* when there is
-/// no runs/ folder but its subdirectories are run directories) and aggregates them. Only reads.
+/// no runs/ folder but its subdirectories are run directories) and aggregates them, the variants
+/// split by extra_axes and split_settings. Only reads.
 /// Throws ConfigError when the directory does not exist or holds no run directory, and when
 /// campaign.yaml exists but cannot be parsed. Thread-safe.
 CampaignReport aggregate_campaign(const Registry& registry,
@@ -146,7 +151,10 @@ std::vector<int> parse_episode_list(const std::string& text, int last);
 std::vector<std::string> plotted_phi_names(const RunResult& run);
 /// Writes the JSON file from which python/drops_plot.py draws one run (`drops plot`): per
 /// episode the returns, phi and metrics, and the real and predicted trajectories of `episodes`
-/// (read with read_trajectory_csv). Throws drops::Error naming a missing trajectory file.
+/// (read with read_trajectory_csv); the label and unit of each phi component ("phi_labels") and
+/// trajectory column ("columns", with its kind: time, state, action, reward or extra) as the
+/// task declared them (ReportInfo), else its name without a unit. Throws drops::Error naming a
+/// missing trajectory file.
 void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
                      const std::filesystem::path& path);
 

@@ -234,8 +234,10 @@ struct RunResult {
   /// when unknown.
   std::string model_type;
   bool uses_prior = true;  ///< whether the variant uses the task's simulator prior
+  bool uses_model = true;  ///< whether it uses a model (AlgorithmPlugin::uses_model)
   std::string prior;       ///< the starting prior's label (summary.json "prior")
-  ReportInfo report;       ///< panel, metric, success criterion, phi labels
+  /// Panel (run_report_info), metric, success criterion, labels and units.
+  ReportInfo report;
   /// Group label: model_type (aggregate_campaign appends " key=value" per variant axis).
   std::string variant;
   std::int64_t seed = -1;                   ///< the run's seed; -1 when unknown
@@ -243,6 +245,13 @@ struct RunResult {
   std::vector<std::string> phi_names;       ///< names of phi's components
   std::vector<double> phi_actual;           ///< phi of the real system (dim = phi_names)
   std::vector<std::string> phi_tunable;     ///< the tunable names (ReportInfo::phi_tunable)
+  /// Names of the trajectory files' state (dim E) and action (dim U) columns (summary.json);
+  /// empty for runs written before summary.json recorded them.
+  std::vector<std::string> state_names, action_names;
+  /// The resolved values of the task's own keys (TaskPlugin::keys) in config.yaml, numbers in
+  /// their shortest form, without the prior's keys (TaskPlugin::is_prior_key) when the run uses
+  /// no prior; empty when this drops does not know the task or cannot read config.yaml.
+  std::map<std::string, std::string> task_settings;
   std::vector<EpisodeResult> episodes;      ///< finished episodes in order
   bool solved = false;                      ///< solved at least once
   std::optional<int> first_solved_episode;  ///< first solved episode, if any

@@ -275,6 +275,8 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     r.panel.label = label.empty() ? "intact" : label;
     r.panel.rank = parts.empty() ? 0 : 1;
     r.panel.title = "real robot: " + r.panel.label;
+    // The damage applies to every run, a direct search on the robot too: it stays in the panel.
+    r.panel.chosen_by_prior = false;
     r.metric = {"walking_speed_m_s", "walking speed", "m/s", "speed", "predicted_speed_m_s", 0.22,
                 "paper's physical robot, intact (0.22 m/s)"};
     // Every episode "succeeds" or not by a speed threshold of ours (HexapodTaskOptions::
@@ -283,6 +285,17 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     for (int leg = -1; leg < kNumLegs; ++leg)
       r.phi_value_labels[leg] = leg < 0 ? "intact" : "leg" + std::to_string(leg);
     r.phi_tunable = {"removed_leg"};
+    r.phi_labels["removed_leg"] = {"prior: removed leg", ""};
+    r.column_labels = {{"x", {"body x", "m"}},
+                       {"y", {"body y", "m"}},
+                       {"z", {"body height z", "m"}},
+                       {"roll", {"roll", "rad"}},
+                       {"pitch", {"pitch", "rad"}},
+                       {"yaw", {"yaw", "rad"}},
+                       {"vx", {"forward velocity", "m/s"}}};
+    for (int k = 0; k < kNumLegs; ++k)
+      for (int j = 0; j < kJointsPerLeg; ++j)
+        r.column_labels["u_" + joint_name(k, j)] = {"target angle " + joint_name(k, j), "rad"};
     return r;
   }
 };

@@ -94,6 +94,11 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_EQ(e.report.metric.name, "walking_speed_m_s");
   EXPECT_FALSE(e.report.success_criterion);
   EXPECT_EQ(e.report.phi_value_labels.at(5), "leg5");
+  EXPECT_EQ(e.report.column_labels.at("vx").unit, "m/s");  // the trajectory figure's body columns
+  // A direct search on the damaged robot stays in the damage's panel (its model-free reference).
+  const auto direct =
+      make("task: hexapod\n", {"algorithm=direct", "hexapod.damage.removed_leg=leg5"});
+  EXPECT_EQ(direct.report.panel.label, "leg5 removed");
 }
 
 // hexapod.reward.tilt_penalty reaches the task's reward: a body on its back (roll = pi) at the

@@ -198,6 +198,13 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     p.rank = it == kPanelOrder.end() ? 100 : static_cast<int>(it - kPanelOrder.begin());
     p.title = it == kPanelOrder.end() ? p.label : kPanelTitles[static_cast<std::size_t>(p.rank)];
     r.phi_tunable = experiment::get_names(st, "prior.tunable");
+    for (const auto& n : kParams)
+      r.phi_labels[n] = {n, n[0] == 'm' ? "kg" : n[0] == 'l' ? "m" : "N·m·s/rad"};
+    r.column_labels = {{"theta1", {"θ₁", "rad"}},
+                       {"theta2", {"θ₂", "rad"}},
+                       {"dtheta1", {"dθ₁/dt", "rad/s"}},
+                       {"dtheta2", {"dθ₂/dt", "rad/s"}},
+                       {"u", {"torque u", "N·m"}}};
     return r;
   }
 };
