@@ -380,7 +380,8 @@ TEST(Report, RunsWhoseTaskSettingsDifferAreSplitByTheSettingNotMerged) {
   // Runs of another task in the same panel and variant are split by the task, not by the
   // pendubot's settings they do not have.
   write(runs / "z" / "summary.json",
-        nlohmann::json({{"task", "myrobot"},
+        nlohmann::json({{"format_version", kRunDirectoryFormatVersion},
+                        {"task", "myrobot"},
                         {"model", "gp_mi"},
                         {"prior", "tunable"},
                         {"status", "complete"},
@@ -772,7 +773,8 @@ fs::path label_fixtures(const fs::path& dir) {
                    {"real_return", 1.5 * k},
                    {"solved", false},
                    {"phi", {0.5 * k, 2.0}}});
-  write(own / "summary.json", nlohmann::json({{"task", "myrobot"},
+  write(own / "summary.json", nlohmann::json({{"format_version", kRunDirectoryFormatVersion},
+                                              {"task", "myrobot"},
                                               {"algorithm", "black_drops"},
                                               {"model", "gp_mi"},
                                               {"uses_prior", true},
