@@ -8,6 +8,7 @@
 #include "drops/pendubot/pendubot.hpp"
 #include "drops/experiment/campaign.hpp"
 #include "fixtures.hpp"
+#include "schema_ranges.hpp"
 
 using namespace drops;
 using drops::fixtures::registry;
@@ -215,77 +216,26 @@ TEST(Config, MarkdownListsEveryKeyOfEveryTask) {
   EXPECT_NE(md.find("## Task `toy`"), std::string::npos);
 }
 
-// The documented ranges are what validation accepts (issue 43): every numeric key of the schema
-// (the experiment's, every algorithm's with that algorithm, the pendubot's) at either end of its
-// range builds an experiment, and just outside it is refused naming the key. Where two keys
-// constrain each other (a prior's value lies in its search interval, an episode lasts at least
-// one control period; documented and named by their messages), the other key makes room.
+// The documented ranges are what validation accepts (issue 43): every numeric key of the
+// pendubot's schema at either end of its range builds an experiment, and just outside it is
+// refused naming the key (tests/schema_ranges.hpp). Where two keys constrain each other (a prior's
+// value lies in its search interval, an episode lasts at least three control periods; documented
+// and named by their messages), the other key makes room.
 TEST(Config, EveryNumericKeyAcceptsBothEndsOfItsDocumentedRangeAndNothingBeyond) {
-  const auto& r = registry();
-  std::vector<std::pair<std::string, experiment::KeySpec>> keys;  // (algorithm, key)
-  for (const auto& k : experiment::base_keys()) keys.emplace_back("", k);
-  for (const auto& a : r.algorithm_names())
-    for (const auto& k : r.algorithm(a).keys()) keys.emplace_back(a, k);
-  for (const auto& k : r.task("pendubot").keys()) keys.emplace_back("", k);
-  const auto all = experiment::schema(r, "pendubot");
-  auto spec = [&](const std::string& key) -> const experiment::KeySpec* {
-    for (const auto& k : all)
-      if (k.key == key) return &k;
-    return nullptr;
-  };
-  auto text = [](double v) {
-    std::ostringstream o;
-    o.precision(17);
-    o << v;
-    return o.str();
-  };
-  int checked = 0;
-  for (const auto& [algorithm, k] : keys) {
-    if (!(k.min < k.max) || (k.type != "int" && k.type != "double" && k.type != "interval"))
-      continue;
-    // An interval's ends are its bounds: [min, max] is accepted, [min - e, max] and
-    // [min, max + e] are not.
-    auto value = [&](double lo, double hi) {
-      if (k.type == "interval") return "[" + text(lo) + ", " + text(hi) + "]";
-      return k.type == "int" ? std::to_string(static_cast<long long>(lo)) : text(lo);
-    };
-    const double below = k.type == "int" ? k.min - 1 : k.min - 1e-9 * std::max(1.0, std::abs(k.min));
-    const double above = k.type == "int" ? k.max + 1 : k.max + 1e-9 * std::max(1.0, std::abs(k.max));
-    std::vector<std::string> inside{value(k.min, k.max)}, outside{value(below, k.max)};
-    if (k.type == "interval") {
-      outside.push_back(value(k.min, above));
-    } else {
-      inside.push_back(value(k.max, k.max));
-      if (std::abs(above) < 9e15) outside.push_back(value(above, above));  // exact integers
-    }
-    if (k.type == "int" && std::abs(below) > 9e15) outside.erase(outside.begin());
-    std::vector<std::string> context;
-    if (!algorithm.empty()) context.push_back("algorithm=" + algorithm);
-    if (k.key == "pendubot.duration") context.push_back("pendubot.dt=0.001");  // >= 3 dt
-    if (k.key == "pendubot.dt") context.push_back("pendubot.duration=100");
-    const std::string prefix = "prior.";
-    if (k.key.rfind(prefix, 0) == 0) {
-      if (const auto* b = spec("prior.bounds." + k.key.substr(prefix.size())))
-        context.push_back(b->key + "=[" + text(b->min) + ", " + text(b->max) + "]");
-    }
-    for (const auto& v : inside) {
-      auto ov = context;
-      ov.push_back(k.key + "=" + v);
-      EXPECT_EQ(error_of("", ov), "") << k.key << " = " << v;
-      ++checked;
-    }
-    for (const auto& v : outside) {
-      auto ov = context;
-      ov.push_back(k.key + "=" + v);
-      std::string what;
-      try {
-        experiment::load_settings(r, "", ov);
-      } catch (const ConfigError& e) {
-        what = e.what();
-      }
-      EXPECT_NE(what.find(k.key), std::string::npos) << k.key << " = " << v << ": " << what;
-    }
-  }
+  const auto all = experiment::schema(registry(), "pendubot");
+  const int checked = fixtures::check_documented_ranges(
+      registry(), "pendubot", [&](const std::string& key) {
+        std::vector<std::string> context;
+        if (key == "pendubot.duration") context.push_back("pendubot.dt=0.001");
+        if (key == "pendubot.dt") context.push_back("pendubot.duration=100");
+        const std::string prefix = "prior.";
+        if (key.rfind(prefix, 0) == 0)
+          for (const auto& k : all)
+            if (k.key == "prior.bounds." + key.substr(prefix.size()))
+              context.push_back(k.key + "=[" + fixtures::exact_text(k.min) + ", " +
+                                fixtures::exact_text(k.max) + "]");
+        return context;
+      });
   EXPECT_GT(checked, 100);
 }
 

@@ -11,6 +11,7 @@
 #include "drops/pendubot/plugin.hpp"
 #include "drops/hexapod/plugin.hpp"
 #include "drops/hexapod/prior.hpp"
+#include "schema_ranges.hpp"
 
 using namespace drops;
 
@@ -228,4 +229,13 @@ TEST(HexapodPlugin, ResolvedDerivedDefaultsEqualExplicitOnes) {
   EXPECT_EQ(hex.at("optimizer.trust_region"), "true");
   EXPECT_EQ(hex.at("model.rprop.max_length_scale_ratio"), "3");
   EXPECT_EQ(hex.at("model.rprop.penalty"), "on");
+}
+
+// The documented ranges are what validation accepts (issue 43), on the hexapod's schema: every
+// numeric key at either end of its range builds an experiment, and just outside it is refused
+// naming the key (tests/schema_ranges.hpp).
+TEST(HexapodPlugin, EveryNumericKeyAcceptsBothEndsOfItsDocumentedRangeAndNothingBeyond) {
+  const int checked = fixtures::check_documented_ranges(
+      registry(), "hexapod", [](const std::string&) { return std::vector<std::string>{}; });
+  EXPECT_GT(checked, 100);
 }
