@@ -249,70 +249,22 @@ const char* plan_word(Plan p) {
   return "?";
 }
 
-std::string summary_status(const fs::path& run_dir) {
-  try {
-    std::ifstream in(run_dir / "summary.json");
-    if (!in) return "";
-    const nlohmann::json j = nlohmann::json::parse(in);
-    return j.value("status", "");
-  } catch (const std::exception&) {
-    return "";
-  }
-}
-
-/// Throws ConfigError when an existing run directory is of another run-directory format version
-/// or was made with other settings.
-void check_run_config(const experiment::Registry& registry, const fs::path& run_dir,
-                      const CampaignRun& run, const fs::path& campaign) {
-  try {
-    experiment::check_run_directory_format(run_dir);
-  } catch (const Error& e) {
-    throw ConfigError("run " + run.name + " in " + campaign.string() + " cannot be kept: " +
-                      e.what() + "; or use a new campaign name (key 'name') or another --output");
-  }
-  experiment::Settings existing;
-  try {
-    existing = experiment::load_settings(registry, read_text(run_dir / "config.yaml"), {});
-  } catch (const std::exception& e) {
-    throw ConfigError("run " + run.name + " in " + campaign.string() +
-                      ": its config.yaml cannot be compared with this campaign (" + e.what() +
-                      "); use a new campaign name (key 'name') or another --output");
-  }
-  // Compare what the runs do: an empty task-dependent default equals its value.
-  experiment::Settings wanted = run.settings;
-  experiment::resolve_derived_defaults(registry, existing);
-  experiment::resolve_derived_defaults(registry, wanted);
-  std::string key;
-  if (!experiment::same_settings(existing, wanted, experiment::campaign_owned_keys(), &key)) {
-    const auto get = [&](const experiment::Settings& s) {
-      const auto it = s.find(key);
-      return it == s.end() ? std::string("(absent)") : it->second;
-    };
-    throw ConfigError("run " + run.name + " in " + campaign.string() +
-                      " was made with different settings: key '" + key + "' is '" + get(existing) +
-                      "' there and '" + get(wanted) +
-                      "' in this campaign; use a new campaign name (key 'name') or another "
-                      "--output");
-  }
-}
-
-Plan classify(const experiment::Registry& registry, const fs::path& campaign,
+Plan classify(const experiment::Registry& registry, const experiment::CampaignDirectory& campaign,
               const CampaignRun& run, bool retry_failed) {
-  const fs::path dir = campaign / "runs" / run.name;
-  if (!fs::exists(dir)) return Plan::kStart;
-  if (lock_held(dir / ".lock")) return Plan::kSkipBusy;
-  const std::string status = summary_status(dir);
-  const bool checkpoint = fs::exists(dir / "checkpoint.json");
+  if (!fs::exists(campaign.run(run.name))) return Plan::kStart;
+  if (lock_held(campaign.run(run.name) / ".lock")) return Plan::kSkipBusy;
+  const std::string status = campaign.run_status(run.name);
   if (status == "complete") {
-    check_run_config(registry, dir, run, campaign);
+    campaign.check_kept_run(registry, run);
     return Plan::kSkipComplete;
   }
   if (status == "failed" && !retry_failed) {
-    check_run_config(registry, dir, run, campaign);
+    campaign.check_kept_run(registry, run);
     return Plan::kSkipFailed;
   }
-  if (checkpoint && (status == "failed" || status == "interrupted" || status == "running")) {
-    check_run_config(registry, dir, run, campaign);
+  if (campaign.run_has_checkpoint(run.name) &&
+      (status == "failed" || status == "interrupted" || status == "running")) {
+    campaign.check_kept_run(registry, run);
     return Plan::kResume;
   }
   return Plan::kRestart;
@@ -363,8 +315,9 @@ class EventLog {
   int fd_ = -1;
 };
 
-std::string status_of(int exit_code, const fs::path& run_dir) {
-  if (exit_code == 0) return summary_status(run_dir) == "complete" ? "complete" : "failed";
+std::string status_of(int exit_code, const experiment::CampaignDirectory& campaign,
+                      const std::string& run) {
+  if (exit_code == 0) return campaign.run_status(run) == "complete" ? "complete" : "failed";
   if (exit_code == 130 || exit_code == 128 + SIGINT || exit_code == 128 + SIGTERM)
     return "interrupted";
   if (exit_code == 3) return "in use";
@@ -382,6 +335,7 @@ struct Campaign {
   CampaignSpec spec;
   std::vector<CampaignRun> runs;
   fs::path dir;           ///< absolute <output>/<name>
+  experiment::CampaignDirectory directory{fs::path()};  ///< its layout (at dir)
   std::string shown;      ///< <output>/<name> as the user gave it (messages)
   std::string file_text;  ///< the campaign file, copied to campaign.yaml
 };
@@ -399,21 +353,22 @@ Campaign resolve_campaign(const CampaignOptions& opt) {
   }
   c.runs = experiment::expand_campaign(*opt.registry, c.spec);
   c.dir = fs::absolute(fs::path(c.spec.output) / c.spec.name).lexically_normal();
+  c.directory = experiment::CampaignDirectory(c.dir);
   c.shown = (fs::path(c.spec.output) / c.spec.name).string();
   return c;
 }
 
 /// Throws ConfigError when the directory already holds another campaign.
 void check_same_campaign(const experiment::Registry& registry, const Campaign& c) {
-  if (!fs::exists(c.dir / "campaign.yaml")) return;
-  CampaignSpec old_spec;
+  std::optional<CampaignSpec> old_spec;
   try {
-    old_spec = experiment::parse_campaign(registry, read_text(c.dir / "campaign.yaml"), c.spec.name);
+    old_spec = c.directory.read_spec(registry, c.spec.name, true);
   } catch (const ConfigError& e) {
-    throw ConfigError(c.shown + "/campaign.yaml cannot be read (" + e.what() +
-                      "); use a new campaign name (key 'name') or another --output");
+    throw ConfigError(std::string(e.what()) +
+                      "; use a new campaign name (key 'name') or another --output");
   }
-  const std::string diff = experiment::campaign_difference(registry, old_spec, c.spec);
+  if (!old_spec) return;
+  const std::string diff = experiment::campaign_difference(registry, *old_spec, c.spec);
   if (!diff.empty())
     throw ConfigError(c.shown + " holds a different campaign: " + diff +
                       " (only jobs and threads may change); use a new campaign name (key "
@@ -434,17 +389,6 @@ void print_dry_run(const Campaign& c, const std::vector<Plan>& plans) {
       c.shown, c.runs.size(), describe_grid(c.spec), n[Plan::kSkipComplete], n[Plan::kResume],
       n[Plan::kStart] + n[Plan::kRestart], n[Plan::kSkipFailed], n[Plan::kSkipBusy], c.spec.threads,
       c.spec.threads == 1 ? "" : "s");
-}
-
-/// campaign.yaml and configs/<run>.yaml (rewritten only when they change).
-void write_campaign_directory(const experiment::Registry& registry, const Campaign& c) {
-  write_file_atomically(c.dir / "campaign.yaml", c.file_text);
-  for (const auto& r : c.runs) {
-    const fs::path p = c.dir / "configs" / (r.name + ".yaml");
-    const std::string text = experiment::to_yaml(registry, r.settings);
-    std::error_code ec;
-    if (!fs::exists(p, ec) || read_text(p) != text) write_file_atomically(p, text);
-  }
 }
 
 /// Runs the planned runs on a pool: launches them in order on free slots, records how each
@@ -535,7 +479,7 @@ class Dispatcher {
       const std::size_t i = queue_.front();
       queue_.pop_front();
       const CampaignRun& run = c_.runs[i];
-      const fs::path run_dir = c_.dir / "runs" / run.name;
+      const fs::path run_dir = c_.directory.run(run.name);
       if (lock_held(run_dir / ".lock")) {
         log_.write("skip", {{"run", run.name}, {"status", "in use"}});
         busy_.push_back(run.name);
@@ -544,7 +488,7 @@ class Dispatcher {
       }
       RunLaunch l;
       l.run = run.name;
-      l.log = (c_.dir / "runs" / (run.name + ".log")).string();
+      l.log = c_.directory.run_log(run.name).string();
       const std::string threads = std::to_string(c_.spec.threads);
       if (plans_[i] == Plan::kResume) {
         l.event = "resume";
@@ -552,8 +496,8 @@ class Dispatcher {
       } else {
         l.event = "start";
         fs::remove_all(run_dir);  // nothing finished in it (see classify)
-        l.argv = {"run",       (c_.dir / "configs" / (run.name + ".yaml")).string(),
-                  "--output",  (c_.dir / "runs").string(),
+        l.argv = {"run",       c_.directory.run_config(run.name).string(),
+                  "--output",  c_.directory.runs().string(),
                   "--name",    run.name,
                   "--threads", threads,
                   "-q"};
@@ -582,7 +526,7 @@ class Dispatcher {
     const CampaignRun& run = c_.runs[slot->run];
     slot.reset();
     if (res.retired) retired_[static_cast<std::size_t>(res.slot)] = true;
-    const std::string status = status_of(res.exit_code, c_.dir / "runs" / run.name);
+    const std::string status = status_of(res.exit_code, c_.directory, run.name);
     log_.write(status == "in use" ? "skip" : "finish",
                {{"run", run.name},
                 {"status", status},
@@ -740,29 +684,29 @@ int coordinate_campaign(const CampaignOptions& opt, WorkerPool* external_pool) {
   std::optional<DirectoryLock> lock;
   if (!opt.dry_run) {
     std::error_code ec;
-    fs::create_directories(c.dir / "runs", ec);
-    if (!ec) fs::create_directories(c.dir / "configs", ec);
+    fs::create_directories(c.dir, ec);  // for the lock; the rest with campaign.yaml, below
     if (ec) throw Error("cannot create " + c.shown + ": " + ec.message());
-    lock.emplace(c.dir / ".lock");
+    lock.emplace(c.directory.lock_file());
     if (!lock->acquired()) {
       std::cerr << "drops campaign: " << c.shown
                 << " is in use by another process (a drops campaign is running it)\n";
       return 3;
     }
-  } else if (lock_held(c.dir / ".lock")) {
+  } else if (lock_held(c.directory.lock_file())) {
     std::cerr << "drops campaign: note: " << c.shown << " is in use by another process\n";
   }
 
   // Plan every run before anything starts (a mismatching run directory stops here).
   std::vector<Plan> plans;
-  for (const auto& r : c.runs) plans.push_back(classify(*opt.registry, c.dir, r, opt.retry_failed));
+  for (const auto& r : c.runs)
+    plans.push_back(classify(*opt.registry, c.directory, r, opt.retry_failed));
   if (opt.dry_run) {
     print_dry_run(c, plans);
     return 0;
   }
 
-  write_campaign_directory(*opt.registry, c);
-  EventLog log(c.dir / "campaign.log");
+  c.directory.write(*opt.registry, c.file_text, c.runs);
+  EventLog log(c.directory.log_file());
   std::unique_ptr<WorkerPool> local;
   if (!external_pool) local = make_local_pool(c.spec.jobs);
   Dispatcher dispatcher(c, std::move(plans), external_pool ? *external_pool : *local, log,

@@ -1,16 +1,8 @@
 #pragma once
 // `drops campaign FILE.yaml`: a grid of `drops run` experiments, each in its own child process,
 // run by a pool of local job slots or by the ranks of an MPI job, resumable at any time.
-// The file format, the directory layout and the resume rules are documented in docs/campaigns.md.
-//
-// <output>/<name>/
-//   campaign.yaml        copy of the campaign file
-//   campaign.log         one JSON object per line (appended and flushed): begin, start, resume,
-//                        finish, skip, end
-//   configs/<run>.yaml   each run's resolved configuration (io::to_yaml)
-//   runs/<run>/          the run directory written by `drops run`
-//   runs/<run>.log       the run's stdout and stderr (appended)
-//   .lock                held (flock) by the coordinating process while the campaign runs
+// The file format, the directory layout and the resume rules are documented in docs/campaigns.md;
+// the directory is read and written through experiment::CampaignDirectory.
 
 #include <sys/types.h>
 

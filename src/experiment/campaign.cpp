@@ -2,6 +2,7 @@
 #include "drops/experiment/campaign.hpp"
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include "drops/core/errors.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/registry.hpp"
+#include "drops/experiment/run_directory.hpp"
 
 namespace drops::experiment {
 namespace fs = std::filesystem;
@@ -486,6 +488,88 @@ std::string campaign_difference(const Registry& registry, const CampaignSpec& ol
     return fmt::format("setting '{}' is '{}' there and '{}' here", key, get(a), get(b));
   }
   return "";
+}
+
+namespace {
+std::string read_text_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) throw Error("cannot read " + p.string());
+  std::ostringstream o;
+  o << in.rdbuf();
+  return o.str();
+}
+}  // namespace
+
+void CampaignDirectory::write(const Registry& registry, const std::string& file_text,
+                              const std::vector<CampaignRun>& runs) const {
+  std::error_code ec;
+  fs::create_directories(this->runs(), ec);
+  if (!ec) fs::create_directories(configs(), ec);
+  if (ec) throw Error("cannot create " + dir_.string() + ": " + ec.message());
+  write_file_atomically(campaign_file(), file_text);
+  for (const auto& r : runs) {
+    const fs::path p = run_config(r.name);
+    const std::string text = to_yaml(registry, r.settings);
+    if (!fs::exists(p, ec) || read_text_file(p) != text) write_file_atomically(p, text);
+  }
+}
+
+std::optional<CampaignSpec> CampaignDirectory::read_spec(const Registry& registry,
+                                                         const std::string& default_name,
+                                                         bool validate) const {
+  if (!fs::exists(campaign_file())) return std::nullopt;
+  try {
+    return parse_campaign(registry, read_text_file(campaign_file()), default_name, validate);
+  } catch (const Error& e) {
+    throw ConfigError(campaign_file().string() + " cannot be read (" + e.what() + ")");
+  }
+}
+
+std::string CampaignDirectory::run_status(const std::string& name) const {
+  try {
+    std::ifstream in(run(name) / "summary.json");
+    if (!in) return "";
+    return nlohmann::json::parse(in).value("status", "");
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
+bool CampaignDirectory::run_has_checkpoint(const std::string& name) const {
+  return fs::exists(run(name) / "checkpoint.json");
+}
+
+void CampaignDirectory::check_kept_run(const Registry& registry, const CampaignRun& r) const {
+  const fs::path run_dir = run(r.name);
+  const std::string where = "run " + r.name + " in " + dir_.string();
+  try {
+    check_run_directory_format(run_dir);
+  } catch (const Error& e) {
+    throw ConfigError(where + " cannot be kept: " + e.what() +
+                      "; or use a new campaign name (key 'name') or another --output");
+  }
+  Settings existing;
+  try {
+    existing = load_settings(registry, read_text_file(run_dir / "config.yaml"), {});
+  } catch (const std::exception& e) {
+    throw ConfigError(where + ": its config.yaml cannot be compared with this campaign (" +
+                      e.what() + "); use a new campaign name (key 'name') or another --output");
+  }
+  // Compare what the runs do: an empty task-dependent default equals its value.
+  Settings wanted = r.settings;
+  resolve_derived_defaults(registry, existing);
+  resolve_derived_defaults(registry, wanted);
+  std::string key;
+  if (!same_settings(existing, wanted, campaign_owned_keys(), &key)) {
+    const auto get = [&](const Settings& s) {
+      const auto it = s.find(key);
+      return it == s.end() ? std::string("(absent)") : it->second;
+    };
+    throw ConfigError(where + " was made with different settings: key '" + key + "' is '" +
+                      get(existing) + "' there and '" + get(wanted) +
+                      "' in this campaign; use a new campaign name (key 'name') or another "
+                      "--output");
+  }
 }
 
 }  // namespace drops::experiment

@@ -248,17 +248,17 @@ CampaignReport aggregate_campaign(const Registry& registry, const fs::path& camp
   report.dir = campaign_dir;
   // The grid axes with more than one value, as written (the campaign may be of a task this build
   // does not offer).
+  const CampaignDirectory campaign(campaign_dir);
   std::vector<std::string> axes;
-  if (fs::exists(campaign_dir / "campaign.yaml"))
-    for (const auto& a :
-         load_campaign_file(registry, (campaign_dir / "campaign.yaml").string(), false).grid)
+  if (const auto spec = campaign.read_spec(registry, campaign_dir.filename().string(), false))
+    for (const auto& a : spec->grid)
       if (a.values.size() > 1 && a.key != "seed" && a.key != "algorithm" &&
           a.key != "model.type" && a.key != "task")
         axes.push_back(a.key);
 
   std::vector<fs::path> dirs;
-  if (fs::is_directory(campaign_dir / "runs")) {
-    report.runs_dir = campaign_dir / "runs";
+  if (fs::is_directory(campaign.runs())) {
+    report.runs_dir = campaign.runs();
     for (const auto& e : fs::directory_iterator(report.runs_dir))
       if (e.is_directory()) dirs.push_back(e.path());
   } else {

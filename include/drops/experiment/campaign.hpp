@@ -1,7 +1,8 @@
 #pragma once
 /// \file The campaign file (docs/campaigns.md): a grid of experiments, its one parser and expansion
-/// into runs, and the comparison of a run's settings with an existing run directory's. Both
-/// `drops campaign` (which runs it) and `drops report` (which reads it back) use this.
+/// into runs, the comparison of a run's settings with an existing run directory's, and the
+/// campaign directory's one reader and writer (CampaignDirectory). Both `drops campaign` (which
+/// runs it) and `drops report` (which reads it back) use this.
 ///
 ///   name: my-campaign         # campaign directory name (default: the file's stem)
 ///   output: campaigns         # parent directory
@@ -10,6 +11,8 @@
 ///   grid: {model.type: [gp_mi, mi], seed: {first: 1, count: 5}}
 ///   settings: {task: cartpole, episodes: 15}
 
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -91,5 +94,56 @@ bool same_setting_value(const std::string& a, const std::string& b);
 /// to its old value; the run directories' own settings decide whether the runs made agree).
 std::string campaign_difference(const Registry& registry, const CampaignSpec& a,
                                 const CampaignSpec& b);
+
+/// The campaign directory <output>/<name>/ (docs/campaigns.md): its layout, written by `drops
+/// campaign` and read back by `drops campaign` (to continue it) and `drops report`:
+///   campaign.yaml        copy of the campaign file
+///   campaign.log         one JSON object per line (appended and flushed): begin, start, resume,
+///                        finish, skip, end
+///   configs/<run>.yaml   each run's resolved configuration (to_yaml)
+///   runs/<run>/          the run directory written by `drops run`
+///   runs/<run>.log       the run's stdout and stderr (appended)
+///   .lock                held (flock) by the coordinating process while the campaign runs
+/// The paths below are the layout's; the object holds only the directory. Thread-safe (const).
+class CampaignDirectory {
+ public:
+  explicit CampaignDirectory(std::filesystem::path dir) : dir_(std::move(dir)) {}
+  const std::filesystem::path& path() const { return dir_; }
+  std::filesystem::path campaign_file() const { return dir_ / "campaign.yaml"; }
+  std::filesystem::path log_file() const { return dir_ / "campaign.log"; }
+  std::filesystem::path lock_file() const { return dir_ / ".lock"; }
+  std::filesystem::path configs() const { return dir_ / "configs"; }
+  std::filesystem::path runs() const { return dir_ / "runs"; }
+  std::filesystem::path run_config(const std::string& run) const {
+    return configs() / (run + ".yaml");
+  }
+  std::filesystem::path run(const std::string& run) const { return runs() / run; }
+  std::filesystem::path run_log(const std::string& run) const { return runs() / (run + ".log"); }
+
+  /// Creates the directory with configs/ and runs/, writes campaign.yaml (file_text) and each
+  /// run's configs/<run>.yaml (rewritten only when its text changes). Throws Error when a file
+  /// cannot be written.
+  void write(const Registry& registry, const std::string& file_text,
+             const std::vector<CampaignRun>& runs) const;
+  /// The campaign file kept in the directory, parsed (parse_campaign with default_name and
+  /// validate); nullopt when there is none. Throws ConfigError naming the file when it cannot be
+  /// read or parsed.
+  std::optional<CampaignSpec> read_spec(const Registry& registry, const std::string& default_name,
+                                        bool validate) const;
+  /// The `status` of runs/<run>/summary.json ("running", "interrupted", "failed", "complete"),
+  /// or "" when there is none or it cannot be read.
+  std::string run_status(const std::string& run) const;
+  /// Whether runs/<run>/ holds a checkpoint.json (an interrupted run can be continued).
+  bool run_has_checkpoint(const std::string& run) const;
+  /// Checks that the existing run directory of `run` can be kept for this campaign: its format
+  /// version is this drops' (check_run_directory_format) and its config.yaml has the run's
+  /// settings (same_settings, the keys the campaign owns aside, task-dependent defaults
+  /// resolved). Throws ConfigError naming the run, the directory and the first differing key,
+  /// with what to do.
+  void check_kept_run(const Registry& registry, const CampaignRun& run) const;
+
+ private:
+  std::filesystem::path dir_;
+};
 
 }  // namespace drops::experiment
