@@ -366,6 +366,57 @@ TEST(BlackDrops, APriorThatCannotSimulateStopsTheRunBeforeTheFirstRealEpisode) {
   EXPECT_EQ(real.episodes, 1);
 }
 
+// Calibration (issue 45): where the real return falls among the predicted rollouts' returns. The
+// oracle is a count over the 20 returns 1..20 and the type-7 quantiles by hand.
+TEST(BlackDrops, CalibrationIsTheRealReturnsRankAmongThePredictedReturns) {
+  algo::EpisodeRecord rec;
+  EXPECT_FALSE(algo::calibration(rec).has_value());  // no model predicted it
+  rec.predicted_returns = VectorXd::LinSpaced(20, 1.0, 20.0).reverse();  // order does not matter
+  rec.predicted_return = 10.5;
+  rec.real_return = 5.5;
+  auto c = algo::calibration(rec);
+  ASSERT_TRUE(c.has_value());
+  EXPECT_DOUBLE_EQ(c->quantile, 5.0 / 20);
+  EXPECT_NEAR(c->band_low, 1.95, 1e-12);    // h = 0.05 * 19 = 0.95 between 1 and 2
+  EXPECT_NEAR(c->band_high, 19.05, 1e-12);  // h = 18.05 between 19 and 20
+  EXPECT_TRUE(c->inside_band);
+  EXPECT_DOUBLE_EQ(c->gap, 5.0);
+  rec.real_return = 7.0;  // equal to one return: counts half
+  EXPECT_DOUBLE_EQ(algo::calibration(rec)->quantile, 6.5 / 20);
+  rec.real_return = 19.5;  // above the 95 % quantile
+  c = algo::calibration(rec);
+  EXPECT_FALSE(c->inside_band);
+  EXPECT_DOUBLE_EQ(c->quantile, 19.0 / 20);
+}
+
+// Each Black-DROPS episode records its predicted rollouts' returns, whose mean is the predicted
+// return, and whether its policy replays the best one so far.
+TEST(BlackDrops, EpisodesRecordThePredictedReturnsAndWhetherTheyReplayTheBestPolicy) {
+  ThreadLimit limit(1);
+  const auto e = fixtures::experiment({"episodes=4", "optimizer.max_evaluations=300",
+                                       "optimizer.prior_optimizations=1", "rollouts.predicted=7"});
+  std::vector<algo::EpisodeRecord> records;
+  algo::BlackDropsCallbacks cb;
+  cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
+  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
+                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+  ASSERT_EQ(records.size(), 4u);
+  VectorXd best;
+  double best_return = -1e300;
+  for (const auto& r : records) {
+    ASSERT_EQ(r.predicted_returns.size(), 7) << r.episode;
+    EXPECT_NEAR(r.predicted_returns.mean(), r.predicted_return,
+                1e-12 * std::max(1.0, std::abs(r.predicted_return)));
+    EXPECT_EQ(r.replay, best.size() > 0 && (best.array() == r.theta.array()).all()) << r.episode;
+    if (r.real_return > best_return) {
+      best_return = r.real_return;
+      best = r.theta;
+    }
+  }
+  EXPECT_GT(records[1].predicted_returns.maxCoeff() - records[1].predicted_returns.minCoeff(),
+            0.0);  // sampled rollouts on a GP model spread
+}
+
 TEST(BlackDrops, InvalidOptionsAreRejected) {
   algo::BlackDropsOptions o;
   o.episodes = 0;

@@ -140,6 +140,34 @@ TEST(Rollout, MedianStatisticIsTheMedianOfTheRolloutsReturns) {
   }
 }
 
+// Each rollout's return, as evaluate_policies reports it for calibration: rollout r of policy k is
+// the oracle's run_episode with stream derive_seed(seeds[k], {r}), in rollout order, and their
+// mean is the mean statistic.
+TEST(Rollout, EachRolloutsReturnIsReportedInRolloutOrder) {
+  Fixture f;
+  rollout::RolloutOptions o;
+  o.rollouts = 5;
+  o.batch = 3;
+  VectorXd mean;
+  MatrixXd each;
+  rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, mean, nullptr,
+                             &each);
+  ASSERT_EQ(each.rows(), static_cast<Eigen::Index>(f.thetas.size()));
+  ASSERT_EQ(each.cols(), 5);
+  const rollout::ModelSystem system(*f.model, o);
+  for (std::size_t k = 0; k < f.thetas.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    auto p = f.pol->clone();
+    p->set_params(f.thetas[k]);
+    for (int r = 0; r < 5; ++r) {
+      Rng rng(derive_seed(f.seeds[k], {static_cast<std::uint64_t>(r)}));
+      EXPECT_NEAR(each(i, r), rollout::run_episode(*f.task, system, *p, rng).total_return(), 1e-6)
+          << "policy " << k << " rollout " << r;
+    }
+    EXPECT_NEAR(each.row(i).mean(), mean[i], 1e-12 * std::max(1.0, std::abs(mean[i])));
+  }
+}
+
 namespace {
 /// A 1-D toy: x climbs by 1 per step (whatever the action) until it reaches `top`, where it
 /// stays; reward x per step. With `absorbing`, x >= top is declared absorbing.

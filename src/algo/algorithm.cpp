@@ -1,6 +1,8 @@
 #include "drops/algo/algorithm.hpp"
 
+#include <algorithm>
 #include <cstdio>
+#include <vector>
 
 #include "drops/core/errors.hpp"
 
@@ -32,6 +34,31 @@ std::string RunSummary::BriefReport() const {
   s += buf;
   if (interrupted) s += " (interrupted)";
   return s;
+}
+
+std::optional<Calibration> calibration(const EpisodeRecord& rec) {
+  const Eigen::Index n = rec.predicted_returns.size();
+  if (n == 0) return std::nullopt;
+  std::vector<double> r(rec.predicted_returns.data(), rec.predicted_returns.data() + n);
+  std::sort(r.begin(), r.end());
+  const double y = rec.real_return;
+  const auto below = std::lower_bound(r.begin(), r.end(), y) - r.begin();
+  const auto equal = std::upper_bound(r.begin(), r.end(), y) - r.begin() - below;
+  // The p-quantile with linear interpolation between order statistics (type 7).
+  auto quantile = [&](double p) {
+    const double h = p * static_cast<double>(n - 1);
+    const auto lo = static_cast<std::size_t>(h);
+    const std::size_t hi = std::min(lo + 1, r.size() - 1);
+    return r[lo] + (h - static_cast<double>(lo)) * (r[hi] - r[lo]);
+  };
+  Calibration c;
+  c.quantile = (static_cast<double>(below) + 0.5 * static_cast<double>(equal)) /
+               static_cast<double>(n);
+  c.band_low = quantile(0.05);
+  c.band_high = quantile(0.95);
+  c.inside_band = c.band_low <= y && y <= c.band_high;
+  c.gap = rec.predicted_return - y;
+  return c;
 }
 
 }  // namespace drops::algo

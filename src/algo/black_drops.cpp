@@ -117,7 +117,8 @@ bool search_policy(const rollout::Task& task, const model::DynamicsModel& planni
 }
 
 // Step 3: the chosen policy on the model that chose it: the mean propagation (the predicted
-// trajectory) and the mean return of options.predicted_rollouts Monte-Carlo rollouts.
+// trajectory) and the returns of options.predicted_rollouts Monte-Carlo rollouts (their mean is
+// the predicted return; their spread, what the model is unsure of: algo::calibration).
 void predict(const rollout::Task& task, const model::DynamicsModel& planning,
              const policy::Policy& policy, const BlackDropsOptions& options, EpisodeRecord& rec) {
   rollout::RolloutOptions mean_only = options.search.rollouts;
@@ -131,10 +132,13 @@ void predict(const rollout::Task& task, const model::DynamicsModel& planning,
   mc.rollouts = options.predicted_rollouts;
   mc.statistic = rollout::ReturnStatistic::kMean;  // the reported prediction: the expected return
   VectorXd ret;
+  MatrixXd each;
   rollout::evaluate_policies(
       task, planning, policy, {rec.theta},
-      {derive_seed(options.seed, {static_cast<std::uint64_t>(rec.episode), kPredicted})}, mc, ret);
+      {derive_seed(options.seed, {static_cast<std::uint64_t>(rec.episode), kPredicted})}, mc, ret,
+      nullptr, &each);
   rec.predicted_return = ret[0];
+  rec.predicted_returns = each.row(0).transpose();
 }
 
 // Step 4: the chosen policy on the real system; its transitions join the data, and the best real
@@ -152,6 +156,7 @@ void run_on_real_system(const rollout::Task& task, const rollout::System& real,
   for (auto& t : rec.real.transitions()) p.data.push_back(std::move(t));
   const bool improved = rec.real_return > p.best_return;
   const bool replay = p.best_theta.size() && (p.best_theta.array() == rec.theta.array()).all();
+  rec.replay = replay;
   if (p.best_theta.size() && !replay && !rec.random_policy) p.region.update(improved);
   if (improved) {
     p.best_return = rec.real_return;

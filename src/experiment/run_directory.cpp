@@ -435,6 +435,13 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   // The real system returned a non-finite state: the episode ended at that step (never solved;
   // only the finite transitions before it are data).
   if (rec.real.nonfinite_step >= 0) e["nonfinite_real_step"] = rec.real.nonfinite_step;
+  // Where the real return fell in the model's predictive distribution of it.
+  if (const auto c = algo::calibration(rec))
+    e["calibration"] = {{"quantile", c->quantile},
+                        {"band", {c->band_low, c->band_high}},
+                        {"inside_band", c->inside_band},
+                        {"gap", c->gap},
+                        {"replay", rec.replay}};
   if (rec.random_policy) {
     e["policy_search"] = "random";
   } else if (!rec.policy_search.runs.empty()) {

@@ -80,7 +80,7 @@ VectorXd ModelSystem::step(const VectorXd& x, const VectorXd& u, Rng& rng) const
 void evaluate_policies(const Task& task, const model::DynamicsModel& model,
                        const policy::Policy& policy, const std::vector<VectorXd>& thetas,
                        const std::vector<std::uint64_t>& seeds, const RolloutOptions& options,
-                       VectorXd& returns, RolloutStats* stats) {
+                       VectorXd& returns, RolloutStats* stats, MatrixXd* rollout_returns) {
   check_size("evaluate_policies seeds vs thetas", static_cast<long>(thetas.size()),
              static_cast<long>(seeds.size()));
   if (options.rollouts < 1 || options.batch < 1)
@@ -158,6 +158,12 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       running = std::move(still);
     }
   });
+  if (rollout_returns) {
+    rollout_returns->resize(static_cast<Eigen::Index>(K), static_cast<Eigen::Index>(R));
+    for (std::size_t l = 0; l < lanes; ++l)
+      (*rollout_returns)(static_cast<Eigen::Index>(l / R), static_cast<Eigen::Index>(l % R)) =
+          lane_return[l];
+  }
   returns.resize(static_cast<Eigen::Index>(K));
   for (std::size_t k = 0; k < K; ++k) {
     const auto first = lane_return.begin() + static_cast<std::ptrdiff_t>(k * R);

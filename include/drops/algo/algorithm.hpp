@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,12 @@ struct EpisodeRecord {
   VectorXd theta;                   ///< policy parameters run (dim param_dim)
   double real_return = 0;
   double predicted_return = 0;      ///< mean over predicted_rollouts MC rollouts (NaN without a model)
+  /// Each of those Monte-Carlo rollouts' return, in rollout order (dim predicted_rollouts; empty
+  /// without a model): the model's predictive distribution of the policy's return.
+  VectorXd predicted_returns;
+  /// theta is a policy already run on the system (the best so far, kept): its real return
+  /// tests the model on data it has seen. Set for Black-DROPS.
+  bool replay = false;
   bool solved = false;
   bool random_policy = false;       ///< episode 1 without a prior: random theta
   /// False when the caller need not keep this episode's trajectories and policy (e.g. a direct
@@ -88,6 +95,22 @@ struct EpisodeRecord {
   /// it, PILCO's optimizer counts); the run directory writes them in summary.json. May be empty.
   Details details;
 };
+
+/// Where an episode's real return falls in the model's predictive distribution of the policy's
+/// return (its Monte-Carlo rollouts on the model that chose it): is the model calibrated?
+struct Calibration {
+  /// Mid-rank quantile of the real return among the predicted returns: (number below + half the
+  /// number equal) / count, in [0, 1]; 0.5 when the model is right on average.
+  double quantile = 0;
+  double band_low = 0;    ///< the predicted returns' 5 % quantile (linear interpolation)
+  double band_high = 0;   ///< their 95 % quantile
+  bool inside_band = false;  ///< band_low <= real return <= band_high
+  double gap = 0;         ///< predicted_return - real_return (> 0: the model was optimistic)
+};
+
+/// The calibration of an episode with predicted returns (rec.predicted_returns not empty), or
+/// nullopt without them (no model predicted the episode). Thread-safe.
+std::optional<Calibration> calibration(const EpisodeRecord& rec);
 
 /// A MAP-Elites archive that an algorithm built, is building or was given (IT&E), with where its
 /// generation stands. The experiment layer saves it beside the checkpoint (the run directory's

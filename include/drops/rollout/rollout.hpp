@@ -81,11 +81,13 @@ struct RolloutStats {
 /// rewards 0) and are counted in *stats; a rollout that reaches an absorbing state
 /// (Task::absorbing) stops there and gets that state's reward for every remaining step. Stopped
 /// rollouts leave the batch: the model predicts the running ones only. returns: resized to
-/// thetas.size().
+/// thetas.size(). rollout_returns (when not null): resized to thetas.size() x options.rollouts,
+/// row k holding each rollout's return of thetas[k] in rollout order (what `returns` combines).
 /// Throws InvalidArgument on size mismatch.
 void evaluate_policies(const Task& task, const model::DynamicsModel& model,
                        const policy::Policy& policy, const std::vector<VectorXd>& thetas,
                        const std::vector<std::uint64_t>& seeds, const RolloutOptions& options,
-                       VectorXd& returns, RolloutStats* stats = nullptr);
+                       VectorXd& returns, RolloutStats* stats = nullptr,
+                       MatrixXd* rollout_returns = nullptr);
 
 }  // namespace drops::rollout
