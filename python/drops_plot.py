@@ -565,6 +565,56 @@ def plot_archive(archive_csv, output_png):
     save(fig, output_png)
 
 
+def plot_calibration(calibration_csv, output_png):
+    """Where the real returns fell among the model's predicted rollouts' returns (drops report's
+    calibration.csv): per panel, one histogram per variant of the quantiles of the episodes whose
+    policy was new (replays of the best policy left out), as fractions of the episodes in 10
+    bins. A calibrated model gives a flat histogram at 0.1; mass at 0 means real returns below
+    every predicted one (an optimistic model)."""
+    with open(calibration_csv, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["replay"] == "0" and r["quantile"] != "nan"]
+    priors, variants, label, title = [], [], {}, {}
+    for r in rows:
+        if r["prior"] not in priors:
+            priors.append(r["prior"])
+        if r["variant"] not in variants:
+            variants.append(r["variant"])
+        label[r["variant"]] = r.get("variant_label") or r["variant"]
+        title[r["prior"]] = r.get("panel_title") or r["prior"]
+    color = {v: VARIANT_COLORS[v] for v in variants if v in VARIANT_COLORS}
+    spare = [c for c in COLORS if c not in color.values()]
+    for v in variants:
+        if v not in color:
+            color[v] = spare.pop(0) if spare else COLORS[len(color) % len(COLORS)]
+    n = max(1, len(priors))
+    ncols = n if n <= 3 else (2 if n == 4 else 3)
+    nrows = math.ceil(n / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 3.4 * nrows), sharey=True,
+                             squeeze=False)
+    edges = np.linspace(0.0, 1.0, 11)
+    for i, prior in enumerate(priors):
+        ax = axes[i // ncols][i % ncols]
+        for v in variants:
+            pts = [r for r in rows if r["prior"] == prior and r["variant"] == v]
+            if not pts:
+                continue
+            q = np.array([number(r["quantile"]) for r in pts])
+            inside = np.mean([r["inside_band"] == "1" for r in pts])
+            counts, _ = np.histogram(np.clip(q, 0.0, 1.0), bins=edges)
+            ax.stairs(counts / len(q), edges, color=color[v], linewidth=1.8,
+                      label=f"{label[v]} ({len(q)} ep., {100 * inside:.0f} % in 5–95 %)")
+        ax.axhline(0.1, color="0.4", linestyle=":", linewidth=1)
+        ax.set_title(title[prior])
+        ax.set_xlabel("quantile of the real return among the predicted ones")
+        ax.set_xlim(0, 1)
+        ax.legend(fontsize=7, loc="upper center")
+    for j in range(len(priors), nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    for r in range(nrows):
+        axes[r][0].set_ylabel("fraction of episodes")
+    save(fig, output_png)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -576,12 +626,17 @@ def main():
     run = sub.add_parser("run")
     run.add_argument("plot_data")
     run.add_argument("output_dir")
+    cal = sub.add_parser("calibration")
+    cal.add_argument("calibration_csv")
+    cal.add_argument("output_png")
     arch = sub.add_parser("archive")
     arch.add_argument("archive_csv")
     arch.add_argument("output_png")
     args = parser.parse_args()
     if args.command == "report":
         plot_report(args.table_csv, args.output_png, args.ylabel)
+    elif args.command == "calibration":
+        plot_calibration(args.calibration_csv, args.output_png)
     elif args.command == "archive":
         plot_archive(args.archive_csv, args.output_png)
     else:

@@ -852,6 +852,51 @@ TEST(Figures, ReportAndRunFiguresAreWrittenAsPng) {
   EXPECT_THROW(plot_run(fixtures::registry(), run, "4", tmp.path() / "plots"), ConfigError);
 }
 
+// Calibration (issue 45): per group, the episodes whose policy was new and the replays apart, the
+// fraction inside the predicted band and the median gap (oracle: the counts of the entries
+// written below), calibration.csv with a row per calibrated episode and its figure.
+TEST(Figures, ReportSummarisesTheCalibrationOfTheModelsPredictions) {
+  TempDir tmp;
+  const fs::path runs = tmp.path() / "runs";
+  fake_run(runs, "a", "gp_mi", "tunable", 1, "complete", {1, 2, 3, 4}, {false, false, false, true});
+  fake_run(runs, "b", "gp_mi", "tunable", 2, "complete", {1, 2, 3}, {false, false, false});
+  // (gap, inside_band, replay) of episodes 2.. of each run; episode 1 has none (random policy).
+  const std::map<std::string, std::vector<std::tuple<double, bool, bool>>> cal = {
+      {"a", {{0.5, true, false}, {2.0, false, false}, {0.1, true, true}}},
+      {"b", {{-0.3, true, false}, {1.0, false, false}}}};
+  for (const auto& [name, entries] : cal) {
+    auto j = nlohmann::json::parse(read(runs / name / "summary.json"));
+    for (std::size_t i = 0; i < entries.size(); ++i) {
+      const auto& [gap, inside, replay] = entries[i];
+      j["episodes"][i + 1]["calibration"] = {{"quantile", inside ? 0.5 : 0.0},
+                                             {"band", {0.0, 1.0}},
+                                             {"inside_band", inside},
+                                             {"gap", gap},
+                                             {"replay", replay}};
+    }
+    write(runs / name / "summary.json", j.dump());
+  }
+  const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
+  ASSERT_EQ(rep.groups.size(), 1u);
+  const GroupReport& g = rep.groups[0];
+  EXPECT_EQ(g.calibrated_episodes, 4);
+  EXPECT_DOUBLE_EQ(g.inside_band_rate, 0.5);
+  EXPECT_DOUBLE_EQ(g.median_gap, 0.75);  // of -0.3, 0.5, 1.0, 2.0
+  EXPECT_EQ(g.replayed_episodes, 1);
+  EXPECT_DOUBLE_EQ(g.replay_inside_band_rate, 1.0);
+  EXPECT_DOUBLE_EQ(g.replay_median_gap, 0.1);
+  ASSERT_TRUE(write_calibration_csv(rep, tmp.path() / "calibration.csv"));
+  const std::string csv = read(tmp.path() / "calibration.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 5);  // header, 5 calibrated episodes
+  write_report_markdown(rep, tmp.path() / "report.md");
+  EXPECT_NE(read(tmp.path() / "report.md").find("| gp_mi | B tunable | 4 | 50 % | 0.75 | 1 | 100 % | 0.1 |"),
+            std::string::npos)
+      << read(tmp.path() / "report.md");
+  if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
+  write_report(rep, tmp.path() / "out", true);
+  EXPECT_TRUE(is_png(tmp.path() / "out" / "calibration.png"));
+}
+
 TEST(Figures, HexapodReportAddsTheWalkingSpeedFigure) {
   if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
   TempDir tmp;

@@ -127,6 +127,8 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
   const bool with_metric =
       !metric.name.empty() && write_metric_csv(report, out_dir / (stem + ".csv"));
   if (with_metric) files.push_back(out_dir / (stem + ".csv"));
+  const bool with_calibration = write_calibration_csv(report, out_dir / "calibration.csv");
+  if (with_calibration) files.push_back(out_dir / "calibration.csv");
   if (figures) {
     try {
       run_plot_script({"report", (out_dir / "returns.csv").string(),
@@ -140,6 +142,12 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
                              (metric.unit.empty() ? "" : " (" + metric.unit + ")")},
                         "drops report");
         files.push_back(out_dir / (stem + ".png"));
+      }
+      if (with_calibration) {
+        run_plot_script({"calibration", (out_dir / "calibration.csv").string(),
+                         (out_dir / "calibration.png").string()},
+                        "drops report");
+        files.push_back(out_dir / "calibration.png");
       }
     } catch (const Error& e) {
       throw Error(fmt::format("{} (the tables are written in {})", e.what(), out_dir.string()));

@@ -150,9 +150,16 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     if (rs.empty()) continue;
     const std::string& metric = g.report.metric.name;
     std::vector<double> first_episode, first_time, final_return, final_metric;
+    std::vector<double> gaps, replay_gaps;
+    int inside = 0, replay_inside = 0;
     int max_episode = 0;
     for (const RunResult* r : rs) {
       g.run_names.push_back(r->name);
+      for (const auto& e : r->episodes) {
+        if (!e.has_calibration || !std::isfinite(e.gap)) continue;
+        (e.replay ? replay_gaps : gaps).push_back(e.gap);
+        (e.replay ? replay_inside : inside) += e.inside_band ? 1 : 0;
+      }
       if (r->status == "complete")
         ++g.complete;
       else if (r->status == "running")
@@ -184,6 +191,17 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     g.median_first_solve_time_s = first_time.empty() ? kNaN : quantile(first_time, 0.5);
     if (!final_return.empty()) g.median_final_return = quantile(final_return, 0.5);
     if (!final_metric.empty()) g.median_final_metric = quantile(final_metric, 0.5);
+    g.calibrated_episodes = static_cast<int>(gaps.size());
+    g.replayed_episodes = static_cast<int>(replay_gaps.size());
+    if (!gaps.empty()) {
+      g.inside_band_rate = static_cast<double>(inside) / static_cast<double>(gaps.size());
+      g.median_gap = quantile(gaps, 0.5);
+    }
+    if (!replay_gaps.empty()) {
+      g.replay_inside_band_rate =
+          static_cast<double>(replay_inside) / static_cast<double>(replay_gaps.size());
+      g.replay_median_gap = quantile(replay_gaps, 0.5);
+    }
 
     const std::size_t nphi = g.phi_names.size();
     for (int k = 1; k <= max_episode; ++k) {
@@ -339,14 +357,18 @@ void write_summary_csv(const CampaignReport& report, const fs::path& path) {
   std::string t =
       "variant,prior,runs,complete,running,interrupted,failed,not_started,solved_runs,"
       "success_rate,solved_last_rate,median_first_solve_episode,median_first_solve_time_s,"
-      "median_final_return,median_final_metric,metric\n";
+      "median_final_return,median_final_metric,metric,calibrated_episodes,inside_band_rate,"
+      "median_gap,replayed_episodes,replay_inside_band_rate,replay_median_gap\n";
   for (const auto& g : report.groups)
-    t += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
-                     csv_field(g.prior), g.runs, g.complete, g.running, g.interrupted, g.failed,
-                     g.not_started, g.solved_runs, num(g.success_rate), num(g.solved_last_rate),
-                     num(g.median_first_solve_episode), num(g.median_first_solve_time_s),
-                     num(g.median_final_return), num(g.median_final_metric),
-                     csv_field(g.report.metric.name));
+    t += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                     csv_field(g.variant), csv_field(g.prior), g.runs, g.complete, g.running,
+                     g.interrupted, g.failed, g.not_started, g.solved_runs, num(g.success_rate),
+                     num(g.solved_last_rate), num(g.median_first_solve_episode),
+                     num(g.median_first_solve_time_s), num(g.median_final_return),
+                     num(g.median_final_metric), csv_field(g.report.metric.name),
+                     g.calibrated_episodes, num(g.inside_band_rate), num(g.median_gap),
+                     g.replayed_episodes, num(g.replay_inside_band_rate),
+                     num(g.replay_median_gap));
   write_file_atomically(path, t);
 }
 
@@ -389,6 +411,29 @@ bool write_metric_csv(const CampaignReport& report, const fs::path& path) {
   write_file_atomically(path, long_table(report, &GroupReport::has_metric,
                                          [](const EpisodeStats& e) { return e.metric; }));
   return true;
+}
+
+bool write_calibration_csv(const CampaignReport& report, const fs::path& path) {
+  std::string t =
+      "variant,prior,run,episode,quantile,inside_band,gap,replay,variant_label,panel_title\n";
+  bool any = false;
+  for (const auto& g : report.groups)
+    for (const auto& name : g.run_names) {
+      const auto r = std::find_if(report.runs.begin(), report.runs.end(),
+                                  [&](const RunResult& x) { return x.name == name; });
+      if (r == report.runs.end()) continue;
+      for (const auto& e : r->episodes) {
+        if (!e.has_calibration) continue;
+        any = true;
+        t += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
+                         csv_field(g.prior), csv_field(name), e.episode,
+                         num(e.calibration_quantile), e.inside_band ? 1 : 0, num(e.gap),
+                         e.replay ? 1 : 0, csv_field(variant_label(g)),
+                         csv_field(panel_title(g)));
+      }
+    }
+  if (any) write_file_atomically(path, t);
+  return any;
 }
 
 void write_phi_csv(const CampaignReport& report, const fs::path& path) {
@@ -577,6 +622,31 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
        (success ? ". \"not solved\": at least half of the runs never solved (never solved "
                   "counts as +∞).\n"
                 : std::string(".\n"));
+
+  // How well the models predicted the policies they chose: the real return against the
+  // predicted rollouts' returns, new policies and replays of the best one apart.
+  if (std::any_of(report.groups.begin(), report.groups.end(), [](const GroupReport& g) {
+        return g.calibrated_episodes + g.replayed_episodes > 0;
+      })) {
+    t += "\n## Calibration of the model's predictions\n\n"
+         "Per episode a model predicted: whether the real return fell inside the 5–95 % band of "
+         "the returns of the model's Monte-Carlo rollouts of that policy, and the gap predicted − "
+         "real (> 0: optimistic). New policies and replays of the best policy already run are "
+         "counted apart; a calibrated model has about 90 % inside the band.\n\n"
+         "| variant | panel | new policies | inside 5–95 % | median gap | replays | inside "
+         "5–95 % | median gap |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
+    for (const auto& g : report.groups) {
+      if (g.calibrated_episodes + g.replayed_episodes == 0) continue;
+      auto rate = [](double r) {
+        return std::isfinite(r) ? fmt::format("{:.0f} %", 100 * r) : std::string("–");
+      };
+      auto gap = [](double x) { return std::isfinite(x) ? fmt::format("{:.3g}", x) : "–"; };
+      t += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g.variant, panel_title(g),
+                       g.calibrated_episodes, rate(g.inside_band_rate), gap(g.median_gap),
+                       g.replayed_episodes, rate(g.replay_inside_band_rate),
+                       gap(g.replay_median_gap));
+    }
+  }
 
   t += "\n## Real return per episode: median [25th, 75th percentile]\n\n"
        "\"(n runs)\" marks episodes that fewer runs than the group's have reached.\n";

@@ -1054,7 +1054,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
           "nonfinite_model_steps", "nonfinite_prior_outputs", "phi_evaluations",
           "rprop_iterations", "trajectories", "policy_search", "policy_search_runs",
-          "policy_selection"};
+          "policy_selection", "calibration"};
       for (const auto& e : s.value("episodes", nlohmann::json::array())) {
         EpisodeResult ep;
         ep.episode = e.value("episode", static_cast<int>(run.episodes.size()) + 1);
@@ -1065,6 +1065,14 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
         ep.random_policy = e.value("random_policy", false);
         if (e.contains("phi"))
           for (const auto& v : e["phi"]) ep.phi.push_back(v.is_number() ? v.get<double>() : kNaN);
+        if (e.contains("calibration") && e["calibration"].is_object()) {
+          const auto& c = e["calibration"];
+          ep.has_calibration = true;
+          ep.calibration_quantile = number_or_nan(c, "quantile");
+          ep.inside_band = c.value("inside_band", false);
+          ep.gap = number_or_nan(c, "gap");
+          ep.replay = c.value("replay", false);
+        }
         for (const auto& [k, v] : e.items())
           if (std::find(kEpisodeKeys.begin(), kEpisodeKeys.end(), k) == kEpisodeKeys.end() &&
               (v.is_number() || v.is_null()))

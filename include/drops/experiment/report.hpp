@@ -83,6 +83,17 @@ struct GroupReport {
   double median_final_return = std::numeric_limits<double>::quiet_NaN();
   /// Median of each run's report metric at its last finished episode; NaN when none.
   double median_final_metric = std::numeric_limits<double>::quiet_NaN();
+  /// Calibration of the model's predictions (algo::Calibration) over the group's episodes that a
+  /// model predicted: those whose policy was new (calibrated_episodes), and apart those that
+  /// replayed the best policy already run (replayed_episodes). Per set: the fraction whose real
+  /// return fell inside the predicted rollouts' 5-95 % band and the median gap predicted - real
+  /// (> 0: optimistic); NaN when the set is empty.
+  int calibrated_episodes = 0;
+  double inside_band_rate = std::numeric_limits<double>::quiet_NaN();
+  double median_gap = std::numeric_limits<double>::quiet_NaN();
+  int replayed_episodes = 0;
+  double replay_inside_band_rate = std::numeric_limits<double>::quiet_NaN();
+  double replay_median_gap = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> phi_names;  ///< phi names (from the group's first run)
   std::vector<double> phi_actual;      ///< phi of the real system (from the group's first run)
   std::vector<EpisodeStats> episodes;  ///< k = 1, 2, ... up to the longest run
@@ -133,6 +144,11 @@ void write_returns_csv(const CampaignReport& report, const std::filesystem::path
 /// Writes the task's report metric (e.g. speed.csv) in the format of returns.csv, for the groups
 /// with has_metric(). Returns false (and writes nothing) when no group has it.
 bool write_metric_csv(const CampaignReport& report, const std::filesystem::path& path);
+/// Writes calibration.csv, long format, one row per episode a model predicted:
+/// variant,prior,run,episode,quantile,inside_band,gap,replay,variant_label,panel_title (the
+/// columns of algo::Calibration; inside_band and replay 0 or 1). Returns false (and writes
+/// nothing) when no episode has a calibration. Throws drops::Error on write failure.
+bool write_calibration_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes phi.csv, long format: variant,prior,episode,parameter,median,actual.
 void write_phi_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes report.md: run counts, the summary table, median [q25, q75] return per episode (one

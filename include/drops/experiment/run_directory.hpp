@@ -216,6 +216,13 @@ struct EpisodeResult {
   bool random_policy = false;  ///< theta was drawn at random (episode 1 of the gp variant)
   std::vector<double> phi;     ///< prior parameters phi used by the model (dim = phi_names)
   std::map<std::string, double> metrics;  ///< the task's per-episode metrics (NaN when null)
+  /// Where the real return fell among the model's predicted rollouts' returns (summary.json
+  /// "calibration", algo::Calibration): has_calibration is false when no model predicted it.
+  bool has_calibration = false;
+  double calibration_quantile = std::numeric_limits<double>::quiet_NaN();  ///< in [0, 1]
+  bool inside_band = false;  ///< inside the rollouts' 5-95 % band
+  double gap = std::numeric_limits<double>::quiet_NaN();  ///< predicted - real return
+  bool replay = false;       ///< the policy is the best one already run, kept
   /// The value of metric `name`, NaN when absent.
   double metric(const std::string& name) const;
 };
