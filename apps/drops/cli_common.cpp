@@ -47,13 +47,7 @@ experiment::Settings settings_from(const experiment::Registry& registry, const s
 experiment::Experiment make_experiment_from(const experiment::Registry& registry,
                                             const experiment::Settings& settings,
                                             const std::string& source) {
-  try {
-    return experiment::make_experiment(registry, settings);
-  } catch (const ConfigError& e) {
-    const std::string what = e.what();
-    if (source.empty() || what.rfind(source + ":", 0) == 0) throw;
-    throw ConfigError(source + ": " + what);
-  }
+  return experiment::make_experiment(registry, settings, source);
 }
 
 void install_interrupt_handler() {

@@ -9,6 +9,7 @@
 
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/experiment.hpp"
+#include "drops/experiment/run.hpp"
 
 namespace drops::app {
 

@@ -1,11 +1,8 @@
 // `drops run` (an algorithm on a configured experiment, or --resume of an interrupted run) and
 // `drops config` (the resolved configuration, or the schema as Markdown).
 
-#include <fmt/format.h>
 #include <unistd.h>
 
-#include <chrono>
-#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -13,21 +10,12 @@
 #include "cli_common.hpp"
 #include "command.hpp"
 #include "drops/core/errors.hpp"
-#include "drops/core/parallel.hpp"
 #include "drops/experiment/experiment.hpp"
+#include "drops/experiment/run.hpp"
 #include "drops/experiment/run_directory.hpp"
 
 namespace drops::app {
 namespace {
-
-std::string phi_brief(const VectorXd& phi, const model::PriorParameters& p) {
-  std::string s;
-  for (int i : p.tunable)
-    if (i >= 0 && i < phi.size() && static_cast<std::size_t>(i) < p.names.size())
-      s += fmt::format("{}{}={:.3f}", s.empty() ? "" : " ", p.names[static_cast<std::size_t>(i)],
-                       phi[i]);
-  return s.empty() ? "none" : s;  // no prior (the gp variant, a direct search), hence no phi
-}
 
 struct RunArgs {
   std::vector<std::string> args;
@@ -41,179 +29,26 @@ struct RunArgs {
 }  // namespace
 
 /// Runs the experiment of `settings` (read from the configuration file `source`, empty: none), or
-/// continues the run in `resume_dir`, with the progress display of `drops run`. Shared by
-/// `drops run` and `drops direct`.
+/// continues the run in `resume_dir`, with the progress display of `drops run` on stderr
+/// (experiment::run_experiment formats the lines). Shared by `drops run` and `drops direct`.
 int run_experiment(const experiment::Registry& registry, const experiment::Settings& settings,
                    const std::string& source, const std::string& resume_dir, bool quiet) {
-  const experiment::Experiment e = make_experiment_from(registry, settings, source);
-  ThreadLimit threads(e.threads);
-  const bool resuming = !resume_dir.empty();
-  std::unique_ptr<experiment::RunDirectory> dir;
-  algo::RunState state;
-  const std::string config_yaml = experiment::to_yaml(registry, e.settings);
+  experiment::RunOutput out;
+  out.quiet = quiet;
+  out.live = !quiet && isatty(STDERR_FILENO);
+  out.line = [](const std::string& text) { std::cerr << text << "\n"; };
+  out.status = [](const std::string& text) { std::cerr << "\r\033[K" << text << std::flush; };
+  out.clear_status = [] { std::cerr << "\r\033[K"; };
+  out.should_stop = [] { return interrupt_requested(); };
+  install_interrupt_handler();
   try {
-    if (resuming) {
-      dir = experiment::RunDirectory::reopen(resume_dir, e, config_yaml, &state);
-    } else if (e.name.empty()) {
-      // A default name holds the time to the second: a run started in the same second by another
-      // process gets "-2", "-3", ... appended.
-      dir = experiment::RunDirectory::create_unique(
-          e.output, e.default_run_name(experiment::local_timestamp()), config_yaml, e);
-    } else {
-      dir = std::make_unique<experiment::RunDirectory>(std::filesystem::path(e.output) / e.name,
-                                                       config_yaml, e);
-    }
+    const experiment::RunOutcome r =
+        experiment::run_experiment(registry, settings, source, resume_dir, out);
+    return r.status == "interrupted" ? 130 : 0;
   } catch (const experiment::RunDirectoryBusy& ex) {
     std::cerr << "drops: " << ex.what() << "\n";
     return 3;
   }
-  const int episodes = e.runner->episodes();
-  const bool live = !quiet && isatty(STDERR_FILENO);
-  // -q: only the final line (done, interrupted or nothing to do; an error is its own line).
-  if (!quiet) {
-    std::cerr << fmt::format("drops run: {} with {}{}, {} episodes, seed {}, {} threads\n",
-                             e.task, e.variant,
-                             e.uses_prior ? fmt::format(" (prior {})", e.setup.prior_label) : "",
-                             episodes, e.seed, e.threads ? e.threads : hardware_threads());
-    std::cerr << "run directory: " << dir->path().string() << "\n";
-  }
-  if (resuming) {
-    if (!quiet) {
-      for (const auto& r : dir->repairs()) std::cerr << "resume: " << r << "\n";
-      if (dir->has_checkpoint())
-        std::cerr << fmt::format("resuming after episode {} of {}\n", state.episodes_done,
-                                 episodes);
-    }
-    if (state.episodes_done >= episodes) {
-      algo::RunSummary done;
-      done.episodes_done = state.episodes_done;
-      done.first_solved_episode = state.first_solved_episode;
-      done.best_real_return = state.best_return;
-      dir->finish(done, "complete");
-      std::cerr << "nothing to do: the run already has its " << episodes << " episodes\n";
-      return 0;
-    }
-  }
-
-  install_interrupt_handler();
-  auto last = std::chrono::steady_clock::now();
-  auto last_line = last;
-  algo::Callbacks cb;
-  cb.should_stop = [] { return interrupt_requested(); };
-  cb.on_status = [&](const algo::Status& s) {
-    dir->record_archive_progress(s);  // IT&E's archive: coverage against evaluations and time
-    const auto now = std::chrono::steady_clock::now();
-    if (s.phase == "simulation episode") {  // PILCO with priors: one line per simulated episode
-      if (live) std::cerr << "\r\033[K";
-      if (!quiet)
-        std::cerr << fmt::format("simulation episode {:>2}/{}  return {:6.2f}  {} evals  [{}]\n",
-                                 s.episode, s.budget, s.best, s.evaluations,
-                                 experiment::now_iso());
-      return;
-    }
-    if (s.phase == "archive" && !live && !quiet) {
-      // Without a terminal (a campaign's log), a line a minute while an archive is built.
-      if (now - last_line < std::chrono::seconds(60)) return;
-      last_line = now;
-      std::cerr << fmt::format("[{}] MAP-Elites on the prior: {}/{} evaluations, {} of the cells "
-                               "filled, best return {:.3f}\n",
-                               experiment::now_iso(), s.evaluations, s.budget,
-                               fmt::format("{:.1f} %", 100 * s.coverage), s.best);
-      return;
-    }
-    if (!live) return;
-    if (now - last < std::chrono::milliseconds(100)) return;
-    last = now;
-    if (s.phase == "simulation") {  // PILCO with priors, before the real episodes
-      std::cerr << fmt::format("\r\033[K[simulation phase, episode {}] policy search: {} "
-                               "evaluations, predicted return {:.2f}",
-                               s.episode, s.evaluations, s.best)
-                << std::flush;
-      return;
-    }
-    const std::string what =
-        s.phase == "model"
-            ? fmt::format("learning model: {} phi evaluations, score {:.2f}", s.evaluations, s.best)
-        : s.phase == "policy"
-            ? fmt::format("policy search: {} evaluations, best return {:.2f}", s.evaluations,
-                          s.best)
-        : s.phase == "archive"
-            ? fmt::format("MAP-Elites on the prior: {}/{} evaluations, {:.1f} % of the cells "
-                          "filled, best return {:.3f}",
-                          s.evaluations, s.budget, 100 * s.coverage, s.best)
-            : std::string("running the episode");
-    std::cerr << fmt::format("\r\033[K[episode {}/{}] {}", s.episode, episodes, what)
-              << std::flush;
-  };
-  cb.on_episode = [&](const algo::EpisodeRecord& r) {
-    dir->record(r);
-    if (live) std::cerr << "\r\033[K";
-    // Said even with -q: a real system that breaks down is something to act on.
-    if (r.real.nonfinite_step >= 0)
-      std::cerr << fmt::format(
-          "episode {}: the real system returned a non-finite state at step {} of {}: the episode "
-          "ended there (reward 0 for the rest, not solved) and only its {} finite transitions "
-          "join the data (summary.json: nonfinite_real_step)\n",
-          r.episode, r.real.nonfinite_step + 1, r.real.actions.rows(), r.real.nonfinite_step);
-    // A direct search reports the episodes that improved on the best (every other is recorded).
-    if (quiet || !r.keep_trajectories) return;
-    std::cerr << fmt::format(
-        "episode {:>2}/{}  t={:5.1f} s  return {:6.2f}  predicted {:6.2f}  solved {}  phi [{}]  "
-        "model {:.1f} s  policy {:.1f} s  {} evals{}\n",
-        r.episode, episodes, r.interaction_time, r.real_return, r.predicted_return,
-        r.solved ? "yes" : "no ", phi_brief(r.phi, e.setup.prior_parameters), r.model_seconds,
-        r.policy_seconds, r.evaluations,
-        r.selected == "start" ? std::string("  (best policy kept)")
-        : r.details.numbers.count("cell")
-            ? fmt::format("  ({} cell {})", r.selected == "trial" ? "trial of" : "best tested",
-                          static_cast<long long>(r.details.numbers.at("cell")))
-            : std::string());
-  };
-  cb.on_state = [&](const algo::RunState& st) { dir->save_state(st); };
-  cb.on_phase = [&](const algo::PhaseRecord& p) {
-    dir->record_phase(p);
-    if (!p.complete) return;  // the phase so far: its episodes have their own progress lines
-    if (live) std::cerr << "\r\033[K";
-    if (quiet) return;
-    const auto number = [&](const char* k) {
-      const auto it = p.summary.numbers.find(k);
-      return it == p.summary.numbers.end() ? std::nan("") : it->second;
-    };
-    std::cerr << fmt::format("{} phase: {} episodes, last return {:.2f} (predicted {:.2f}), {:.1f} s\n",
-                             p.name, p.episodes.size(), number("last_return"),
-                             number("last_predicted_return"), number("seconds"));
-  };
-
-  algo::RunSummary summary;
-  try {
-    // A directory reopened without a checkpoint (no episode had finished) starts from the
-    // beginning.
-    const bool continuing = resuming && dir->has_checkpoint();
-    summary = e.runner->run(e.setup.problem(), cb, continuing ? &state : nullptr);
-  } catch (const std::exception& ex) {
-    if (live) std::cerr << "\r\033[K";
-    dir->finish(summary, "failed", ex.what());
-    throw;
-  }
-  if (live) std::cerr << "\r\033[K";
-  dir->finish(summary, summary.interrupted ? "interrupted" : "complete");
-  std::string hint;  // what to do with an interrupted run
-  if (summary.interrupted) {
-    if (e.runner->resumable() && dir->has_checkpoint())
-      hint = "continue it with: drops run --resume " + dir->path().string();
-    else if (e.runner->resumable())  // --resume starts it from its beginning, in place
-      hint = "no episode finished, so nothing was recorded: start it again with: drops run "
-             "--resume " + dir->path().string();
-    else
-      hint = "algorithm '" + e.algorithm + "' cannot be resumed: start it again (its " +
-             std::to_string(summary.episodes_done) + " recorded episodes stay in " +
-             dir->path().string() + ")";
-  }
-  std::cerr << fmt::format("{}: {}; results in {}", summary.interrupted ? "interrupted" : "done",
-                           summary.BriefReport(), dir->path().string());
-  // With -q the hint goes on the final line, the only one.
-  std::cerr << (hint.empty() ? "" : quiet ? "; " + hint : "\n" + hint) << "\n";
-  return summary.interrupted ? 130 : 0;
 }
 
 namespace {
@@ -228,27 +63,13 @@ int run_main(const experiment::Registry& registry, const RunArgs& a) {
   std::string source = file;
   const bool resuming = a.resume.has_value();
   if (resuming) {
-    if (a.resume->empty())
-      throw ConfigError("--resume needs the run directory to continue, got an empty path");
     if (!file.empty())
       throw ConfigError("--resume takes the run directory's own config.yaml; drop '" + file + "'");
     if (a.seed || !a.output.empty() || !a.name.empty())
       throw ConfigError("--resume continues a run as configured; --seed, --output and --name "
                         "cannot be changed");
-    for (const auto& o : overrides) {
-      const std::string key = o.substr(0, o.find('='));
-      if (key != "episodes" && key != "threads")
-        throw ConfigError("--resume can only change episodes= and threads=, not '" + key + "'");
-    }
-    const std::filesystem::path d(*a.resume);
-    if (!std::filesystem::is_directory(d))
-      throw Error(d.string() + " is not a run directory (no such directory)");
-    if (!std::filesystem::exists(d / "config.yaml"))
-      throw Error(d.string() + " is not a run directory (no config.yaml)");
-    // Another format version is named before its config.yaml, whose keys may differ, is read.
-    experiment::check_run_directory_format(d);
-    source = (d / "config.yaml").string();
-    settings = experiment::load_settings_file(registry, source, overrides);
+    settings = experiment::resume_settings(registry, *a.resume, overrides);
+    source = (std::filesystem::path(*a.resume) / "config.yaml").string();
   } else {
     if (a.seed) overrides.push_back("seed=" + std::to_string(*a.seed));
     if (!a.output.empty()) overrides.push_back("output=" + a.output);

@@ -746,7 +746,7 @@ std::vector<int> default_plot_episodes(const RunResult& run) {
   // Episodes with trajectories (a direct search keeps only its improvements).
   std::vector<int> with;
   for (const auto& e : run.episodes)
-    if (fs::exists(run.dir / "episodes" / fmt::format("{:03d}", e.episode) / "real.csv"))
+    if (fs::exists(episode_dir(run.dir, e.episode) / "real.csv"))
       with.push_back(e.episode);
   if (with.empty())  // none written yet (or not a run directory): every episode is a candidate
     for (const auto& e : run.episodes) with.push_back(e.episode);
@@ -832,7 +832,7 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
   };
   nlohmann::json trajectories = nlohmann::json::object();
   for (int k : episodes) {
-    const fs::path dir = run.dir / "episodes" / fmt::format("{:03d}", k);
+    const fs::path dir = episode_dir(run.dir, k);
     nlohmann::json ep = {{"real", table(read_trajectory_csv(dir / "real.csv"))}};
     if (fs::exists(dir / "predicted.csv"))
       ep["predicted"] = table(read_trajectory_csv(dir / "predicted.csv"));
@@ -858,7 +858,7 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
   nlohmann::json columns = nlohmann::json::array();
   if (!episodes.empty()) {
     const TrajectoryTable t = read_trajectory_csv(
-        run.dir / "episodes" / fmt::format("{:03d}", episodes.front()) / "real.csv");
+        episode_dir(run.dir, episodes.front()) / "real.csv");
     auto in = [](const std::vector<std::string>& v, const std::string& n) {
       return std::find(v.begin(), v.end(), n) != v.end();
     };

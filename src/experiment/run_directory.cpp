@@ -1153,4 +1153,30 @@ TrajectoryTable read_trajectory_csv(const fs::path& path) {
   return t;
 }
 
+fs::path episode_dir(const fs::path& run_dir, int episode) {
+  return run_dir / "episodes" / episode_folder(episode);
+}
+
+std::vector<double> read_policy_csv(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot read " + path.string());
+  std::vector<double> theta;
+  std::string line;
+  int row = 0;
+  while (std::getline(in, line)) {
+    ++row;
+    if (line.empty()) continue;
+    double v = kNaN;
+    try {
+      std::size_t used = 0;
+      v = std::stod(line, &used);
+      if (used != line.size()) throw std::invalid_argument(line);
+    } catch (const std::exception&) {
+      throw Error(fmt::format("{} line {}: '{}' is not a number", path.string(), row, line));
+    }
+    theta.push_back(v);
+  }
+  return theta;
+}
+
 }  // namespace drops::experiment

@@ -294,5 +294,13 @@ struct TrajectoryTable {
 /// Reads a trajectory file. Throws drops::Error naming the file when it cannot be read or a row
 /// has another number of cells than the header.
 TrajectoryTable read_trajectory_csv(const std::filesystem::path& path);
+/// The folder of one episode's files in a run directory: run_dir/episodes/NNN (episode 1-based,
+/// three digits at least). Whether it exists depends on the run (a direct search keeps the files
+/// of the episodes that improved on the best). Thread-safe.
+std::filesystem::path episode_dir(const std::filesystem::path& run_dir, int episode);
+/// Reads a policy file (episodes/NNN/policy.csv): the policy parameters theta, one per line
+/// (dim = the policy's parameter count). Throws drops::Error naming the file, and the line when
+/// one is not a number. Thread-safe.
+std::vector<double> read_policy_csv(const std::filesystem::path& path);
 
 }  // namespace drops::experiment
