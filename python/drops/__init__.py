@@ -1,0 +1,286 @@
+"""drops from Python: run the experiments of the drops command line and read their results.
+
+Black-DROPS with GP-MI (Chatzilygeroudis & Mouret, ICRA 2018) as a library: every function here
+calls the C++ library drops (the extension drops._drops), so a run from Python writes the same run
+directory, with the same validation and messages, as ``drops run``. docs/python.md has the guide.
+
+    import drops
+    out = drops.run("configs/pendubot-gp_mi.yaml", ["episodes=3", "seed=2"])
+    run = drops.read_run(out.directory)
+    run.episodes["real_return"]          # (N,) the return of each real episode
+    run.real(1).x                        # (T + 1, E) the states of episode 1
+
+Errors are raised as drops.Error and its subclasses: ConfigError (also a ValueError) for a bad
+configuration key or value, with the message of the command line; RunDirectoryBusy when another
+process writes the run directory; RunDirectoryDamaged when a run directory does not match its
+checkpoint; InvalidArgument; NumericalError.
+"""
+
+import os as _os
+from collections.abc import Mapping as _Mapping
+
+import numpy as _np
+
+from . import _drops
+from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDirectoryBusy,
+                     RunDirectoryDamaged, RunOutcome)
+
+__all__ = [
+    "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
+    "read_trajectory", "read_policy", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
+    "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged",
+]
+
+
+def _yaml_value(value):
+    """A Python value as the YAML text of a key=value override (True -> true, [a, b] -> [a, b])."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_yaml_value(v) for v in value) + "]"
+    return str(value)
+
+
+def _overrides(overrides, extra):
+    """key=value strings from a sequence of "key=value", a mapping {key: value}, or None, followed
+    by the keyword arguments in `extra` that are not None (as the command line's --seed etc.)."""
+    if overrides is None:
+        result = []
+    elif isinstance(overrides, str):
+        raise TypeError("overrides: expected a list of 'key=value' strings or a dict, got the "
+                        f"string {overrides!r} (write ['{overrides}'])")
+    elif isinstance(overrides, _Mapping):
+        result = [f"{k}={_yaml_value(v)}" for k, v in overrides.items()]
+    else:
+        result = []
+        for o in overrides:
+            if not isinstance(o, str) or "=" not in o:
+                raise TypeError(f"overrides: expected 'key=value' strings, got {o!r}")
+            result.append(o)
+    for key, value in extra.items():
+        if value is not None:
+            result.append(f"{key}={_yaml_value(value)}")
+    return result
+
+
+def _path(p):
+    return "" if p is None else _os.fspath(p)
+
+
+def run(config=None, overrides=None, *, seed=None, threads=None, output=None, name=None,
+        quiet=False, progress=None):
+    """Runs an experiment as ``drops run [config] [key=value ...]`` does; returns a RunOutcome.
+
+    config: a YAML configuration file (str or path-like), or None for the defaults (the pendubot,
+        Black-DROPS with GP-MI, 10 episodes, seed 1).
+    overrides: key=value settings applied after the file: a list of "key=value" strings (values
+        are YAML: "prior.bounds.m2=[0.1, 1.5]") or a dict {key: value}; `drops.schema()` lists the
+        keys, with units and ranges.
+    seed, threads, output, name: the same as the overrides seed=, threads= (0 = every core),
+        output= (parent of the run directory, default "runs") and name= (the run directory's
+        name; default "<task>-<variant>-<prior>-seed<seed>-<time>").
+    quiet: print only the final line (and warnings a user must act on), as ``drops run -q``.
+    progress: None to print the progress lines of ``drops run`` on sys.stderr (a status line
+        updated in place when sys.stderr is a terminal), or a callable taking each line (str,
+        without newline).
+
+    Returns a RunOutcome: directory (the run directory), status ('complete' or 'interrupted'),
+    episodes_done, first_solved_episode, best_real_return, seconds, brief, hint.
+    Raises ConfigError (a ValueError) for an unknown key, a wrong type or an out-of-range value,
+    with the command line's message; RunDirectoryBusy when another process writes the run
+    directory; Error for other failures (the run directory then says "failed"); whatever the
+    progress callable raises (the run stops after its current step). Ctrl-C stops the run after
+    its current step with every finished episode on disk (status "interrupted", resumable with
+    drops.resume), then raises KeyboardInterrupt.
+    The interpreter lock is released while the C++ code runs and taken briefly for each progress
+    line and each poll for Ctrl-C. One run at a time per process (drops's thread pool is shared).
+    """
+    args = _overrides(overrides, {"seed": seed, "threads": threads, "output": output,
+                                  "name": name})
+    return _drops._run(_path(config), args, bool(quiet), progress)
+
+
+def resume(directory, overrides=None, *, threads=None, quiet=False, progress=None):
+    """Continues the run in `directory` from its last finished episode, as
+    ``drops run --resume DIR [episodes=N] [threads=N]``; returns a RunOutcome.
+
+    directory: a run directory (str or path-like) of an interrupted or finished run.
+    overrides: only episodes= (extend a run) and threads= may change ("key=value" list or dict).
+    threads, quiet, progress: as for run().
+
+    The resumed run produces exactly the episodes an uninterrupted run would have. A run that
+    already has its episodes runs nothing (RunOutcome.nothing_to_do).
+    Raises ConfigError when another key is overridden; Error when `directory` is not a run
+    directory or is of another format version; RunDirectoryDamaged when its files do not match
+    its checkpoint; RunDirectoryBusy; KeyboardInterrupt after Ctrl-C, as run().
+    """
+    args = _overrides(overrides, {"threads": threads})
+    return _drops._resume(_path(directory), args, bool(quiet), progress)
+
+
+def config(config=None, overrides=None):
+    """The resolved configuration (defaults, the file and the overrides) as YAML text, every key
+    of the task's schema, as ``drops config [config] [key=value ...]`` prints it.
+
+    config, overrides: as for run(). Raises ConfigError as run() does.
+    """
+    return _drops._config(_path(config), _overrides(overrides, {}))
+
+
+def schema(task=None):
+    """The configuration keys of an experiment on `task` (None: the default task, the pendubot):
+    a list of dicts with key (dotted name), type ("int", "double", "bool", "string", "enum",
+    "names", "interval"), default (YAML text; "" = derived from the task), min and max (the
+    inclusive numeric range, None when unbounded), allowed (enum values), unit and doc.
+
+    Raises ConfigError when the task is unknown (the message lists the registered ones).
+    """
+    return _drops._schema("" if task is None else str(task))
+
+
+def schema_markdown():
+    """Every key of every task as Markdown tables (``drops config --markdown``,
+    docs/configuration.md)."""
+    return _drops._schema_markdown()
+
+
+def tasks():
+    """The names of the registered tasks (list of str), the default task first."""
+    return list(_drops._tasks())
+
+
+def algorithms():
+    """The names of the registered algorithms (list of str), the default first."""
+    return list(_drops._algorithms())
+
+
+def read_trajectory(path):
+    """Reads a trajectory file (episodes/NNN/real.csv or predicted.csv) with drops's reader.
+
+    Returns (columns, data): the column names (list of str, C of them) and an array (R, C) of
+    float64, one row per line, NaN for an empty cell. Raises Error naming the file when it cannot
+    be read or a row has another number of cells than the header.
+    """
+    columns, data = _drops._read_trajectory(_path(path))
+    return list(columns), data
+
+
+def read_policy(path):
+    """Reads a policy file (episodes/NNN/policy.csv): theta, an array (P,) of float64 (the policy's
+    parameters, in [-policy.bound, policy.bound]). Raises Error naming the file (and the line)."""
+    return _drops._read_policy(_path(path))
+
+
+class Trajectory:
+    """One trajectory of a run directory (episodes/NNN/real.csv or predicted.csv), as arrays.
+
+    A trajectory of T steps has T + 1 states. Attributes:
+      columns: the file's column names (list of str, C of them); data: (T + 1, C) all of it.
+      t: (T + 1,) time of each state (s).
+      x: (T + 1, E) the states, columns state_names (units: the task's, docs/python.md).
+      u: (T, A) the action applied after each state but the last, columns action_names.
+      reward: (T,) the reward of each step (the reward that led to state k + 1).
+      extras: dict name -> (T + 1,) the task's per-state extras (e.g. the pendubot's tip height).
+      state_names, action_names: lists of str.
+    """
+
+    def __init__(self, columns, data, state_names, action_names):
+        self.columns = list(columns)
+        self.data = data
+        self.state_names = list(state_names)
+        self.action_names = list(action_names)
+        index = {c: i for i, c in enumerate(self.columns)}
+
+        def cols(names):
+            missing = [n for n in names if n not in index]
+            if missing:
+                raise Error(f"trajectory: no column {missing[0]!r} (columns: {self.columns})")
+            return data[:, [index[n] for n in names]]
+
+        self.t = data[:, index["t"]] if "t" in index else _np.full(len(data), _np.nan)
+        self.x = cols(self.state_names)
+        self.u = cols(self.action_names)[:-1]
+        self.reward = data[1:, index["reward"]] if "reward" in index else _np.full(
+            max(len(data) - 1, 0), _np.nan)
+        known = {"t", "reward", *self.state_names, *self.action_names}
+        self.extras = {c: data[:, i] for c, i in index.items() if c not in known}
+
+    def __repr__(self):
+        return (f"Trajectory(steps={len(self.u)}, x={self.x.shape}, u={self.u.shape}, "
+                f"columns={self.columns})")
+
+
+class Run:
+    """A run directory read back through drops's own reader (the reader of ``drops report``).
+
+    Attributes (from summary.json and config.yaml):
+      directory, name, status ("running", "complete", "interrupted", "failed", "not started" or
+      "unreadable"), error, task, algorithm, model_type, variant, prior, uses_prior, uses_model,
+      seed, episodes_planned, solved, first_solved_episode (None when never), first_solved_time_s
+      (interaction time then, s; inf when never), task_settings (dict key -> YAML text).
+      phi_names: (P names); phi_actual: (P,) the real system's phi; phi_tunable: names.
+      state_names (E names), action_names (A names): the trajectory columns.
+      episodes: dict of arrays over the N finished episodes:
+        episode (N,) int, 1-based; interaction_time_s (N,) real time used so far (s);
+        real_return (N,); predicted_return (N,) (NaN without a model); solved (N,) bool;
+        random_policy (N,) bool; phi (N, P) the prior parameters the model used (NaN-padded);
+        metrics: dict name -> (N,) the task's per-episode metrics.
+    Methods real(k), predicted(k) give Trajectory objects and policy(k) theta (P_theta,) of
+    episode k (1-based), when the run kept its files (a direct search keeps the improving ones).
+    """
+
+    def __init__(self, fields):
+        self.__dict__.update(fields)
+
+    def _file(self, episode, name):
+        if not isinstance(episode, (int, _np.integer)) or episode < 1:
+            raise InvalidArgument(f"episode: expected a 1-based episode number, got {episode!r}")
+        return _os.path.join(_drops._episode_dir(self.directory, int(episode)), name)
+
+    def real(self, episode):
+        """The real trajectory of `episode` (1-based) as a Trajectory. Raises Error naming the
+        file when the episode kept no trajectory or the file cannot be read."""
+        return Trajectory(*read_trajectory(self._file(episode, "real.csv")), self.state_names,
+                          self.action_names)
+
+    def predicted(self, episode):
+        """The trajectory the model predicted for the policy of `episode` (mean propagation) as
+        a Trajectory. Raises Error naming the file when there is none (no model)."""
+        return Trajectory(*read_trajectory(self._file(episode, "predicted.csv")),
+                          self.state_names, self.action_names)
+
+    def policy(self, episode):
+        """The policy parameters theta of `episode` (1-based): an array (P_theta,). Raises Error
+        naming the file when the episode kept none."""
+        return read_policy(self._file(episode, "policy.csv"))
+
+    @property
+    def summary(self):
+        """The run's summary as a dict: status, episodes_done, episodes_planned, solved,
+        first_solved_episode, first_solved_time_s (s), best_real_return (NaN when no episode)."""
+        returns = self.episodes["real_return"]
+        finite = returns[_np.isfinite(returns)]
+        return {
+            "status": self.status,
+            "episodes_done": int(len(returns)),
+            "episodes_planned": self.episodes_planned,
+            "solved": self.solved,
+            "first_solved_episode": self.first_solved_episode,
+            "first_solved_time_s": self.first_solved_time_s,
+            "best_real_return": float(finite.max()) if len(finite) else float("nan"),
+        }
+
+    def __repr__(self):
+        return (f"Run({self.name!r}, task={self.task!r}, variant={self.variant!r}, "
+                f"status={self.status!r}, episodes={len(self.episodes['episode'])})")
+
+
+def read_run(directory):
+    """Reads a run directory (str or path-like) into a Run with numpy arrays, through drops's
+    run-directory reader (read_run, as ``drops report`` reads it).
+
+    Never raises for bad run files: a run whose summary.json or config.yaml cannot be parsed, or
+    of another run-directory format version, has status "unreadable" and the reason in `error`.
+    Raises Error only when `directory` is not a directory.
+    """
+    return Run(_drops._read_run(_path(directory)))

@@ -1,0 +1,393 @@
+// drops._drops: the pybind11 extension under the Python package drops (python/drops/__init__.py,
+// docs/python.md). It registers the built-in tasks and algorithms as the `drops` program does
+// (apps/drops/main.cpp) and exposes drops::experiment: running and resuming an experiment
+// (experiment::run_experiment, the run loop of `drops run`), the run-directory reader (read_run,
+// read_trajectory_csv, read_policy_csv) with numpy arrays, and the configuration schema.
+// drops's exceptions become Python exceptions of the same names (drops.Error and subclasses).
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "drops/core/errors.hpp"
+#include "drops/core/parallel.hpp"
+#include "drops/experiment/config.hpp"
+#include "drops/experiment/registry.hpp"
+#include "drops/experiment/run.hpp"
+#include "drops/experiment/run_directory.hpp"
+#include "drops/pendubot/plugin.hpp"
+#ifdef DROPS_WITH_HEXAPOD
+#include "drops/hexapod/plugin.hpp"
+#endif
+
+namespace py = pybind11;
+namespace ex = drops::experiment;
+
+namespace {
+
+// The tasks and algorithms of the `drops` program, registered once when the module is imported.
+std::unique_ptr<ex::Registry> g_registry;
+
+const ex::Registry& registry() { return *g_registry; }
+
+void register_builtins(ex::Registry& r) {
+  ex::register_builtin_algorithms(r);
+  drops::pendubot::register_task(r);  // the default task
+#ifdef DROPS_WITH_HEXAPOD
+  drops::hexapod::register_task(r);
+#else
+  r.add_unavailable_task("hexapod", "this drops was built without DART 6; run "
+                                    "scripts/install-deps, then scripts/build again");
+#endif
+}
+
+// The Python classes of drops's exceptions (created in the module's init).
+struct ExceptionTypes {
+  PyObject* error = nullptr;
+  PyObject* config_error = nullptr;
+  PyObject* invalid_argument = nullptr;
+  PyObject* numerical_error = nullptr;
+  PyObject* busy = nullptr;
+  PyObject* damaged = nullptr;
+} g_exc;
+
+PyObject* add_exception(py::module_& m, const char* name, const char* doc, py::tuple bases) {
+  const std::string qualified = std::string("drops.") + name;
+  PyObject* type = PyErr_NewExceptionWithDoc(qualified.c_str(), doc, bases.ptr(), nullptr);
+  if (type == nullptr) throw py::error_already_set();
+  m.add_object(name, py::handle(type));  // the module keeps a reference for the process
+  return type;
+}
+
+// A KeySpec as a dict (drops.schema()).
+py::dict key_dict(const ex::KeySpec& k) {
+  py::dict d;
+  d["key"] = k.key;
+  d["type"] = k.type;
+  d["default"] = k.default_value;
+  d["min"] = k.min < k.max ? py::object(py::float_(k.min)) : py::object(py::none());
+  d["max"] = k.min < k.max ? py::object(py::float_(k.max)) : py::object(py::none());
+  d["allowed"] = k.allowed;
+  d["unit"] = k.unit;
+  d["doc"] = k.doc;
+  return d;
+}
+
+py::array_t<double> vector_array(const std::vector<double>& v) {
+  py::array_t<double> a(static_cast<py::ssize_t>(v.size()));
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+// What the Python side of one run shares with its callbacks (called on the calling thread, which
+// released the interpreter lock: each callback takes it for its own duration).
+struct PythonOutput {
+  py::object progress;  // a callable taking one line, or None: sys.stderr
+  py::object stderr_;   // sys.stderr when progress is None
+  // The first Python exception raised in a callback (the progress callable, sys.stderr, or
+  // KeyboardInterrupt from PyErr_CheckSignals): the run stops after its current step and the
+  // exception is raised again from drops.run / drops.resume once the run directory is closed.
+  std::optional<py::error_already_set> error;
+
+  void write(const std::string& text, bool newline) {
+    if (error) return;  // the output already failed: say nothing more
+    py::gil_scoped_acquire gil;
+    try {
+      if (!progress.is_none()) {
+        progress(text);
+      } else {
+        stderr_.attr("write")(newline ? text + "\n" : text);
+        stderr_.attr("flush")();
+      }
+    } catch (py::error_already_set& e) {
+      error.emplace(std::move(e));
+    }
+  }
+
+  bool should_stop() {
+    if (error) return true;
+    py::gil_scoped_acquire gil;
+    // Runs Python's signal handlers: Ctrl-C raises KeyboardInterrupt here (main thread only).
+    if (PyErr_CheckSignals() != 0) error.emplace();
+    return error.has_value();
+  }
+};
+
+/// The result of drops.run / drops.resume.
+struct PyRunOutcome {
+  std::string directory, status, hint, brief;
+  bool nothing_to_do = false;
+  int episodes_done = 0;
+  std::optional<int> first_solved_episode;
+  double best_real_return = 0, seconds = 0;
+};
+
+PyRunOutcome run_impl(const ex::Settings& settings, const std::string& source,
+                      const std::string& resume_dir, bool quiet, py::object progress) {
+  PythonOutput py_out;
+  py_out.progress = std::move(progress);
+  ex::RunOutput out;
+  out.quiet = quiet;
+  if (py_out.progress.is_none()) {
+    py_out.stderr_ = py::module_::import("sys").attr("stderr");
+    try {
+      out.live = !quiet && py_out.stderr_.attr("isatty")().cast<bool>();
+    } catch (py::error_already_set&) {
+      out.live = false;  // a replaced sys.stderr without isatty()
+    }
+  }
+  out.line = [&](const std::string& text) { py_out.write(text, true); };
+  out.status = [&](const std::string& text) { py_out.write("\r\033[K" + text, false); };
+  out.clear_status = [&] { py_out.write("\r\033[K", false); };
+  out.should_stop = [&] { return py_out.should_stop(); };
+  ex::RunOutcome r;
+  {
+    py::gil_scoped_release release;
+    r = ex::run_experiment(registry(), settings, source, resume_dir, out);
+  }
+  if (py_out.error) throw std::move(*py_out.error);
+  PyRunOutcome o;
+  o.directory = r.directory.string();
+  o.status = r.status;
+  o.hint = r.hint;
+  o.brief = r.summary.BriefReport();
+  o.nothing_to_do = r.nothing_to_do;
+  o.episodes_done = r.summary.episodes_done;
+  if (r.summary.first_solved_episode > 0) o.first_solved_episode = r.summary.first_solved_episode;
+  o.best_real_return = r.summary.best_real_return;
+  o.seconds = r.summary.seconds;
+  return o;
+}
+
+ex::Settings settings_of(const std::string& config, const std::vector<std::string>& overrides) {
+  if (config.empty()) return ex::load_settings(registry(), "", overrides);
+  return ex::load_settings_file(registry(), config, overrides);
+}
+
+py::dict run_dict(const ex::RunResult& r) {
+  py::dict d;
+  d["name"] = r.name;
+  d["directory"] = r.dir.string();
+  d["status"] = r.status;
+  d["error"] = r.error;
+  d["task"] = r.task;
+  d["algorithm"] = r.algorithm;
+  d["model_type"] = r.model_type;
+  d["variant"] = r.variant;
+  d["prior"] = r.prior;
+  d["uses_prior"] = r.uses_prior;
+  d["uses_model"] = r.uses_model;
+  d["seed"] = r.seed;
+  d["episodes_planned"] = r.episodes_planned;
+  d["phi_names"] = r.phi_names;
+  d["phi_actual"] = vector_array(r.phi_actual);
+  d["phi_tunable"] = r.phi_tunable;
+  d["state_names"] = r.state_names;
+  d["action_names"] = r.action_names;
+  d["task_settings"] = r.task_settings;
+  d["solved"] = r.solved;
+  d["first_solved_episode"] =
+      r.first_solved_episode ? py::object(py::int_(*r.first_solved_episode)) : py::none();
+  d["first_solved_time_s"] = r.first_solved_time_s;
+
+  const auto n = static_cast<py::ssize_t>(r.episodes.size());
+  std::size_t phi_dim = r.phi_names.size();
+  for (const auto& e : r.episodes) phi_dim = std::max(phi_dim, e.phi.size());
+  py::array_t<long long> episode(n);
+  py::array_t<double> time(n), real(n), predicted(n);
+  py::array_t<bool> solved(n), random(n);
+  py::array_t<double> phi({n, static_cast<py::ssize_t>(phi_dim)});
+  std::vector<std::string> metric_names;
+  for (const auto& e : r.episodes)
+    for (const auto& [k, v] : e.metrics)
+      if (std::find(metric_names.begin(), metric_names.end(), k) == metric_names.end())
+        metric_names.push_back(k);
+  py::dict metrics;
+  std::vector<py::array_t<double>> metric_arrays;
+  for (std::size_t k = 0; k < metric_names.size(); ++k) metric_arrays.emplace_back(n);
+  auto phi_m = phi.mutable_unchecked<2>();
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const ex::EpisodeResult& e = r.episodes[static_cast<std::size_t>(i)];
+    episode.mutable_at(i) = e.episode;
+    time.mutable_at(i) = e.interaction_time_s;
+    real.mutable_at(i) = e.real_return;
+    predicted.mutable_at(i) = e.predicted_return;
+    solved.mutable_at(i) = e.solved;
+    random.mutable_at(i) = e.random_policy;
+    for (std::size_t j = 0; j < phi_dim; ++j)
+      phi_m(i, static_cast<py::ssize_t>(j)) =
+          j < e.phi.size() ? e.phi[j] : std::numeric_limits<double>::quiet_NaN();
+    for (std::size_t m = 0; m < metric_names.size(); ++m)
+      metric_arrays[m].mutable_at(i) = e.metric(metric_names[m]);
+  }
+  for (std::size_t m = 0; m < metric_names.size(); ++m) metrics[py::str(metric_names[m])] =
+      metric_arrays[m];
+  py::dict episodes;
+  episodes["episode"] = episode;
+  episodes["interaction_time_s"] = time;
+  episodes["real_return"] = real;
+  episodes["predicted_return"] = predicted;
+  episodes["solved"] = solved;
+  episodes["random_policy"] = random;
+  episodes["phi"] = phi;
+  episodes["metrics"] = metrics;
+  d["episodes"] = episodes;
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_drops, m) {
+  m.doc() = "The C++ core of the Python package drops (use the package: import drops).";
+  drops::use_single_threaded_blas();
+  g_registry = std::make_unique<ex::Registry>();
+  register_builtins(*g_registry);
+
+  const py::handle runtime_error(PyExc_RuntimeError), value_error(PyExc_ValueError),
+      arithmetic_error(PyExc_ArithmeticError);
+  g_exc.error = add_exception(m, "Error", "Base class of every error drops raises.",
+                              py::make_tuple(runtime_error));
+  const py::handle error(g_exc.error);
+  g_exc.config_error = add_exception(
+      m, "ConfigError",
+      "A configuration (file, key=value override, argument) is invalid; the message names the key, "
+      "the value and what is allowed, as the drops command line says it.",
+      py::make_tuple(error, value_error));
+  g_exc.invalid_argument = add_exception(
+      m, "InvalidArgument", "An argument of the wrong size or value (\"expected X, got Y\").",
+      py::make_tuple(error, value_error));
+  g_exc.numerical_error = add_exception(
+      m, "NumericalError", "A numerical procedure failed (e.g. a Cholesky factorization).",
+      py::make_tuple(error, arithmetic_error));
+  g_exc.busy = add_exception(m, "RunDirectoryBusy",
+                             "Another process holds the run directory (drops run exits with 3).",
+                             py::make_tuple(error));
+  g_exc.damaged = add_exception(
+      m, "RunDirectoryDamaged",
+      "A run directory does not match its checkpoint (a file missing, cut or edited); the "
+      "message names the file.",
+      py::make_tuple(error));
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const ex::RunDirectoryBusy& e) {
+      PyErr_SetString(g_exc.busy, e.what());
+    } catch (const ex::RunDirectoryDamaged& e) {
+      PyErr_SetString(g_exc.damaged, e.what());
+    } catch (const drops::ConfigError& e) {
+      PyErr_SetString(g_exc.config_error, e.what());
+    } catch (const drops::InvalidArgument& e) {
+      PyErr_SetString(g_exc.invalid_argument, e.what());
+    } catch (const drops::NumericalError& e) {
+      PyErr_SetString(g_exc.numerical_error, e.what());
+    } catch (const drops::Error& e) {
+      PyErr_SetString(g_exc.error, e.what());
+    }
+  });
+
+  py::class_<PyRunOutcome>(m, "RunOutcome",
+                           "What drops.run or drops.resume did (the run's files are in directory).")
+      .def_readonly("directory", &PyRunOutcome::directory, "The run directory (str).")
+      .def_readonly("status", &PyRunOutcome::status,
+                    "summary.json's final status: 'complete' or 'interrupted'.")
+      .def_readonly("nothing_to_do", &PyRunOutcome::nothing_to_do,
+                    "True when a resumed run already had its episodes (nothing was run).")
+      .def_readonly("hint", &PyRunOutcome::hint,
+                    "For an interrupted run: how to continue it; '' otherwise.")
+      .def_readonly("episodes_done", &PyRunOutcome::episodes_done,
+                    "Real episodes finished, earlier sessions of a resumed run included.")
+      .def_readonly("first_solved_episode", &PyRunOutcome::first_solved_episode,
+                    "First episode (1-based) that solved the task, None when none did.")
+      .def_readonly("best_real_return", &PyRunOutcome::best_real_return,
+                    "Best return of a real episode (the task's reward summed over the episode).")
+      .def_readonly("seconds", &PyRunOutcome::seconds, "Wall-clock time of this call (s).")
+      .def_readonly("brief", &PyRunOutcome::brief,
+                    "One line: '10 episodes, best return 19.81, first solved at episode 4, "
+                    "83.2 s'.")
+      .def("__repr__", [](const PyRunOutcome& o) {
+        return "RunOutcome(status='" + o.status + "', directory='" + o.directory + "', " +
+               o.brief + ")";
+      });
+
+  m.def(
+      "_run",
+      [](const std::string& config, const std::vector<std::string>& overrides, bool quiet,
+         py::object progress) {
+        const ex::Settings s = settings_of(config, overrides);
+        return run_impl(s, config, "", quiet, std::move(progress));
+      },
+      py::arg("config"), py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
+      "drops.run's C++ side: load the settings (config: a YAML file or ''), run, return a "
+      "RunOutcome. Raises ConfigError for a bad key or value.");
+  m.def(
+      "_resume",
+      [](const std::string& directory, const std::vector<std::string>& overrides, bool quiet,
+         py::object progress) {
+        const ex::Settings s = ex::resume_settings(registry(), directory, overrides);
+        const std::string source = (std::filesystem::path(directory) / "config.yaml").string();
+        return run_impl(s, source, directory, quiet, std::move(progress));
+      },
+      py::arg("directory"), py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
+      "drops.resume's C++ side: continue the run in directory (episodes= and threads= overrides "
+      "only).");
+  m.def(
+      "_config",
+      [](const std::string& config, const std::vector<std::string>& overrides) {
+        const ex::Settings s = settings_of(config, overrides);
+        ex::make_experiment(registry(), s, config);  // full validation, as `drops config`
+        return ex::to_yaml(registry(), s);
+      },
+      py::arg("config"), py::arg("overrides"),
+      "The resolved configuration as YAML text (drops config). Raises ConfigError.");
+  m.def(
+      "_schema",
+      [](const std::string& task) {
+        py::list keys;
+        for (const auto& k :
+             ex::schema(registry(), task.empty() ? registry().default_task() : task))
+          keys.append(key_dict(k));
+        return keys;
+      },
+      py::arg("task"), "The keys of the schema of task ('' = the default task), as dicts.");
+  m.def(
+      "_schema_markdown", [] { return ex::schema_markdown(registry()); },
+      "Every key of every task as Markdown tables (drops config --markdown).");
+  m.def(
+      "_tasks", [] { return registry().task_names(); },
+      "The registered tasks' names, the default first.");
+  m.def(
+      "_algorithms", [] { return registry().algorithm_names(); },
+      "The registered algorithms' names, the default first.");
+  m.def(
+      "_read_run",
+      [](const std::string& directory) { return run_dict(ex::read_run(directory, &registry())); },
+      py::arg("directory"), "read_run as a dict of fields and numpy arrays.");
+  m.def(
+      "_read_trajectory",
+      [](const std::string& path) {
+        const ex::TrajectoryTable t = ex::read_trajectory_csv(path);
+        py::array_t<double> a({static_cast<py::ssize_t>(t.rows.size()),
+                               static_cast<py::ssize_t>(t.columns.size())});
+        auto am = a.mutable_unchecked<2>();
+        for (std::size_t i = 0; i < t.rows.size(); ++i)
+          for (std::size_t j = 0; j < t.columns.size(); ++j)
+            am(static_cast<py::ssize_t>(i), static_cast<py::ssize_t>(j)) = t.rows[i][j];
+        return py::make_tuple(t.columns, a);
+      },
+      py::arg("path"), "read_trajectory_csv: (column names, array (rows, columns)).");
+  m.def(
+      "_read_policy",
+      [](const std::string& path) { return vector_array(ex::read_policy_csv(path)); },
+      py::arg("path"), "read_policy_csv: theta as an array (P,).");
+  m.def(
+      "_episode_dir",
+      [](const std::string& run_dir, int episode) {
+        return ex::episode_dir(run_dir, episode).string();
+      },
+      py::arg("run_dir"), py::arg("episode"), "The folder of an episode's files (episodes/NNN).");
+}
