@@ -936,3 +936,28 @@ same(d.trajectory_columns(o, ["t", "q", "dq", "u_1", "reward"]), ["q", "dq", "u_
   for (const char* f : {"returns.png", "phi.png", "trajectories-002.png"})
     EXPECT_TRUE(is_png(tmp.path() / "own-plots" / f)) << f;
 }
+
+// The policy file's reader returns what RunDirectory::record writes (17 significant digits, one
+// value per line) and names the file and line of a value that is not a number.
+TEST(RunDirectoryReader, PolicyFileReadsBackItsValuesAndNamesABadLine) {
+  TempDir tmp;
+  const fs::path dir = episode_dir(tmp.path(), 7);
+  EXPECT_EQ(dir, tmp.path() / "episodes" / "007");
+  EXPECT_EQ(episode_dir(tmp.path(), 1234), tmp.path() / "episodes" / "1234");
+  write(dir / "policy.csv", "0.021712759007204575\n-1.5870370591271457\n3\n");
+  const std::vector<double> theta = read_policy_csv(dir / "policy.csv");
+  ASSERT_EQ(theta.size(), 3u);
+  EXPECT_EQ(theta[0], 0.021712759007204575);
+  EXPECT_EQ(theta[1], -1.5870370591271457);
+  EXPECT_EQ(theta[2], 3.0);
+  write(dir / "bad.csv", "1\n2x\n");
+  try {
+    read_policy_csv(dir / "bad.csv");
+    FAIL() << "a line that is not a number was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.csv line 2: '2x' is not a number"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(read_policy_csv(dir / "missing.csv"), Error);
+}
