@@ -89,10 +89,13 @@ py::array_t<double> vector_array(const std::vector<double>& v) {
 struct PythonOutput {
   py::object progress;  // a callable taking one line, or None: sys.stderr
   py::object stderr_;   // sys.stderr when progress is None
-  // The first Python exception raised in a callback (the progress callable, sys.stderr, or
-  // KeyboardInterrupt from PyErr_CheckSignals): the run stops after its current step and the
-  // exception is raised again from drops.run / drops.resume once the run directory is closed.
+  // The first exception the progress callable or sys.stderr raised: nothing more is printed, the
+  // run stops after its current step and the exception is raised again from drops.run /
+  // drops.resume once the run directory is closed.
   std::optional<py::error_already_set> error;
+  // KeyboardInterrupt (Ctrl-C, seen by PyErr_CheckSignals or raised in the progress callable): the
+  // run stops after its current step, its final lines are printed, then it is raised again.
+  std::optional<py::error_already_set> interrupt;
 
   void write(const std::string& text, bool newline) {
     if (error) return;  // the output already failed: say nothing more
@@ -105,16 +108,26 @@ struct PythonOutput {
         stderr_.attr("flush")();
       }
     } catch (py::error_already_set& e) {
-      error.emplace(std::move(e));
+      if (e.matches(PyExc_KeyboardInterrupt)) {
+        if (!interrupt) interrupt.emplace(std::move(e));
+      } else {
+        error.emplace(std::move(e));
+      }
     }
   }
 
   bool should_stop() {
-    if (error) return true;
+    if (error || interrupt) return true;
     py::gil_scoped_acquire gil;
     // Runs Python's signal handlers: Ctrl-C raises KeyboardInterrupt here (main thread only).
-    if (PyErr_CheckSignals() != 0) error.emplace();
-    return error.has_value();
+    if (PyErr_CheckSignals() != 0) {
+      py::error_already_set e;
+      if (e.matches(PyExc_KeyboardInterrupt))
+        interrupt.emplace(std::move(e));
+      else
+        error.emplace(std::move(e));  // another signal handler's exception
+    }
+    return error || interrupt;
   }
 };
 
@@ -151,6 +164,7 @@ PyRunOutcome run_impl(const ex::Settings& settings, const std::string& source,
     r = ex::run_experiment(registry(), settings, source, resume_dir, out);
   }
   if (py_out.error) throw std::move(*py_out.error);
+  if (py_out.interrupt) throw std::move(*py_out.interrupt);
   PyRunOutcome o;
   o.directory = r.directory.string();
   o.status = r.status;

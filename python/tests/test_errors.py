@@ -67,7 +67,10 @@ def test_ctrl_c_stops_the_run_after_its_current_step_and_raises_keyboard_interru
         first.wait(120)
         os.kill(os.getpid(), signal.SIGINT)  # as Ctrl-C, while C++ runs without the lock
 
+    lines = []
+
     def progress(line):
+        lines.append(line)
         if line.startswith("episode  1/"):
             first.set()
 
@@ -85,3 +88,5 @@ def test_ctrl_c_stops_the_run_after_its_current_step_and_raises_keyboard_interru
     assert summary["status"] == "interrupted"
     assert 1 <= len(summary["episodes"]) < 20
     assert (tmp_path / "c" / "checkpoint.json").exists()
+    # The final lines are printed before KeyboardInterrupt is raised.
+    assert lines[-2].startswith("interrupted: ") and lines[-1].startswith("continue it with: ")
