@@ -261,6 +261,11 @@ def plot_phi(data, out):
         vals = np.array([number(e["phi"][i]) if i < len(e.get("phi", [])) else math.nan
                          for e in eps])
         ax.plot(k, vals, "-o", color="#1f77b4", markersize=4, label="model's φ")
+        sd = np.array([number(e["phi_sd"][i]) if i < len(e.get("phi_sd") or []) else math.nan
+                       for e in eps])
+        if np.isfinite(sd).any():  # GP-MI's posterior: phi +- 2 sd, clipped to the axes
+            ax.fill_between(k, vals - 2 * sd, vals + 2 * sd, color="#1f77b4", alpha=0.2,
+                            linewidth=0, label="± 2 sd (posterior)")
         if i < len(actual) and actual[i] is not None:
             ax.axhline(actual[i], color="black", linestyle="--", linewidth=1.2, label="actual")
         if discrete and i == 0:
@@ -279,6 +284,30 @@ def plot_phi(data, out):
     fig.suptitle("Prior parameters φ chosen by the model per episode", fontsize=12)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     save(fig, os.path.join(out, "phi.png"))
+
+
+def plot_phi_correlation(data, out):
+    """The correlation matrix of GP-MI's posterior over phi at the last episode that has one:
+    values near +-1 mark parameters the data only know in combination (a trade-off)."""
+    c = data["phi_correlation"]
+    names = [phi_label(data, n) for n in c["names"]]
+    m = np.array([[number(v) for v in row] for row in c["matrix"]])
+    n = len(names)
+    fig, ax = plt.subplots(figsize=(1.1 * n + 2.2, 1.0 * n + 1.2))
+    im = ax.imshow(m, vmin=-1, vmax=1, cmap="RdBu_r")
+    ax.set_xticks(range(n))
+    ax.set_xticklabels(names, rotation=45, ha="right")
+    ax.set_yticks(range(n))
+    ax.set_yticklabels(names)
+    ax.grid(False)
+    for a in range(n):
+        for b in range(n):
+            if np.isfinite(m[a, b]):
+                ax.text(b, a, f"{m[a, b]:.2f}", ha="center", va="center", fontsize=8,
+                        color="white" if abs(m[a, b]) > 0.6 else "black")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+    ax.set_title(f"Correlation of φ's posterior, episode {c['episode']}", fontsize=10)
+    save(fig, os.path.join(out, "phi-correlation.png"))
 
 
 def plot_metric(data, out):
@@ -442,6 +471,8 @@ def plot_run(data_json, out):
     plot_returns(data, out)
     if data.get("phi_plotted"):
         plot_phi(data, out)
+    if data.get("phi_correlation"):
+        plot_phi_correlation(data, out)
     if data["metric"].get("name"):
         plot_metric(data, out)
     for key in sorted(data["trajectories"], key=int):

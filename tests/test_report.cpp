@@ -806,6 +806,35 @@ nlohmann::json plot_column(const nlohmann::json& data, const std::string& name) 
   return nullptr;
 }
 
+// GP-MI's posterior over phi (issue 45) goes from summary.json to plot-data.json: each
+// episode's standard deviation per entry of phi (null where the posterior has none), the last
+// posterior's correlation matrix, and the figure phi-correlation.png.
+TEST(Plot, PlotDataCarriesPhisPosteriorAndItsCorrelationFigure) {
+  TempDir tmp;
+  fake_campaign(tmp.path());
+  const fs::path run = tmp.path() / "runs" / "gp_mi-tunable-seed1";
+  auto j = nlohmann::json::parse(read(run / "summary.json"));
+  j["episodes"][1]["phi_posterior"] = {{"names", {"b1", "m1"}},
+                                       {"mean", {10.0, 2.0}},
+                                       {"sd", {0.5, 0.25}},
+                                       {"correlation", {{1.0, -0.9}, {-0.9, 1.0}}}};
+  write(run / "summary.json", j.dump());
+  fake_trajectory(run / "episodes" / "002" / "real.csv");
+  const RunResult r = read_run(run, &fixtures::registry());
+  ASSERT_EQ(r.episodes[1].posterior_names, (std::vector<std::string>{"b1", "m1"}));
+  write_plot_data(r, {2}, tmp.path() / "plot.json");
+  const auto d = nlohmann::json::parse(read(tmp.path() / "plot.json"));
+  // phi_names are m1, b1: the sd follows them, not the posterior's order.
+  EXPECT_EQ(d["episodes"][1]["phi_sd"], nlohmann::json({0.25, 0.5}));
+  EXPECT_EQ(d["episodes"][0]["phi_sd"], nlohmann::json({nullptr, nullptr}));
+  EXPECT_EQ(d["phi_correlation"]["episode"], 2);
+  EXPECT_EQ(d["phi_correlation"]["matrix"][0][1], -0.9);
+  if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";
+  plot_run(fixtures::registry(), run, "2", tmp.path() / "plots");
+  EXPECT_TRUE(is_png(tmp.path() / "plots" / "phi-correlation.png"));
+  EXPECT_TRUE(is_png(tmp.path() / "plots" / "phi.png"));
+}
+
 TEST(Plot, PlotDataCarriesTheTasksLabelsAndUnitsAndOnlyNamesForATaskThatDeclaresNone) {
   TempDir tmp;
   label_fixtures(tmp.path());

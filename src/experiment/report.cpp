@@ -813,14 +813,35 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
     for (const auto& [k, v] : e.metrics) m[k] = number(v);
     nlohmann::json phi = nlohmann::json::array();
     for (double v : e.phi) phi.push_back(number(v));
+    // The posterior's standard deviation per entry of phi (null where it has none).
+    nlohmann::json phi_sd = nlohmann::json::array();
+    for (const auto& name : run.phi_names) {
+      const auto it = std::find(e.posterior_names.begin(), e.posterior_names.end(), name);
+      const auto i = static_cast<std::size_t>(it - e.posterior_names.begin());
+      phi_sd.push_back(i < e.posterior_sd.size() ? number(e.posterior_sd[i]) : nullptr);
+    }
     eps.push_back({{"episode", e.episode},
                    {"interaction_time_s", number(e.interaction_time_s)},
                    {"real_return", number(e.real_return)},
                    {"predicted_return", number(e.predicted_return)},
                    {"solved", e.solved},
                    {"phi", phi},
+                   {"phi_sd", phi_sd},
                    {"metrics", m}});
   }
+  // The last episode's correlation of phi's posterior (the trade-offs the model sees).
+  nlohmann::json phi_correlation = nullptr;
+  for (auto e = run.episodes.rbegin(); e != run.episodes.rend(); ++e)
+    if (e->posterior_names.size() >= 2) {
+      nlohmann::json rows = nlohmann::json::array();
+      for (const auto& r : e->posterior_correlation) {
+        nlohmann::json row = nlohmann::json::array();
+        for (double v : r) row.push_back(number(v));
+        rows.push_back(row);
+      }
+      phi_correlation = {{"episode", e->episode}, {"names", e->posterior_names}, {"matrix", rows}};
+      break;
+    }
   auto table = [&](const TrajectoryTable& t) {
     nlohmann::json rows = nlohmann::json::array();
     for (const auto& r : t.rows) {
@@ -898,6 +919,7 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
       {"phi_plotted", plotted_phi_names(run)},
       {"phi_value_labels", labels},
       {"phi_labels", phi_labels},
+      {"phi_correlation", phi_correlation},
       {"columns", columns},
       {"metric",
        {{"name", run.report.metric.name},

@@ -435,6 +435,23 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   // The real system returned a non-finite state: the episode ended at that step (never solved;
   // only the finite transitions before it are data).
   if (rec.real.nonfinite_step >= 0) e["nonfinite_real_step"] = rec.real.nonfinite_step;
+  // How sure the model is of phi (GP-MI's Laplace approximation, model::PhiPosterior).
+  if (const auto& post = rec.model.phi_posterior; !post.empty()) {
+    const VectorXd sd = post.stddev();
+    const MatrixXd c = post.correlation();
+    nlohmann::json corr = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < c.rows(); ++i) {
+      nlohmann::json row = nlohmann::json::array();
+      for (Eigen::Index j = 0; j < c.cols(); ++j) row.push_back(number(c(i, j)));
+      corr.push_back(row);
+    }
+    nlohmann::json mean = nlohmann::json::array(), sds = nlohmann::json::array();
+    for (Eigen::Index i = 0; i < sd.size(); ++i) {
+      mean.push_back(number(post.mean[i]));
+      sds.push_back(number(sd[i]));
+    }
+    e["phi_posterior"] = {{"names", post.names}, {"mean", mean}, {"sd", sds}, {"correlation", corr}};
+  }
   // Where the real return fell in the model's predictive distribution of it.
   if (const auto c = algo::calibration(rec))
     e["calibration"] = {{"quantile", c->quantile},
@@ -1054,7 +1071,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
           "nonfinite_model_steps", "nonfinite_prior_outputs", "phi_evaluations",
           "rprop_iterations", "trajectories", "policy_search", "policy_search_runs",
-          "policy_selection", "calibration"};
+          "policy_selection", "calibration", "phi_posterior"};
       for (const auto& e : s.value("episodes", nlohmann::json::array())) {
         EpisodeResult ep;
         ep.episode = e.value("episode", static_cast<int>(run.episodes.size()) + 1);
@@ -1065,6 +1082,17 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
         ep.random_policy = e.value("random_policy", false);
         if (e.contains("phi"))
           for (const auto& v : e["phi"]) ep.phi.push_back(v.is_number() ? v.get<double>() : kNaN);
+        if (e.contains("phi_posterior") && e["phi_posterior"].is_object()) {
+          const auto& p = e["phi_posterior"];
+          ep.posterior_names = p.value("names", std::vector<std::string>{});
+          for (const auto& v : p.value("sd", nlohmann::json::array()))
+            ep.posterior_sd.push_back(v.is_number() ? v.get<double>() : kNaN);
+          for (const auto& row : p.value("correlation", nlohmann::json::array())) {
+            std::vector<double> r;
+            for (const auto& v : row) r.push_back(v.is_number() ? v.get<double>() : kNaN);
+            ep.posterior_correlation.push_back(std::move(r));
+          }
+        }
         if (e.contains("calibration") && e["calibration"].is_object()) {
           const auto& c = e["calibration"];
           ep.has_calibration = true;

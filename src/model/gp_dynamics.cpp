@@ -95,6 +95,8 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
     throw NumericalError("the simulator prior returned non-finite values at phi = [" +
                          format_phi(phi_) + "] on the recorded data");
   s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
+  if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
+    s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
   s.score = gp_mi_score(s.log_likelihoods, options_.gp_mi.score);
   s.phi = phi_;
   s.seconds = seconds_since(t0);

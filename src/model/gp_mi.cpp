@@ -14,6 +14,12 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -231,6 +237,87 @@ GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& param
   if (options.search == GpMiSearch::kAlternating && !all_discrete)
     return alternating_search(prior, parameters, d, options, inner, gps, progress);
   return nested_search(prior, parameters, d, options, inner, gps, progress);
+}
+
+VectorXd PhiPosterior::stddev() const { return covariance.diagonal().cwiseSqrt(); }
+
+MatrixXd PhiPosterior::correlation() const {
+  const VectorXd s = stddev();
+  MatrixXd c = covariance.array() / (s * s.transpose()).array();
+  c.diagonal().setOnes();
+  return c;
+}
+
+PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
+                           const Dataset& data, const std::vector<gp::Gp>& gps) {
+  PhiPosterior post;
+  std::vector<int> at;  // indices into phi of the continuous tunable parameters
+  std::vector<double> step;
+  for (std::size_t k = 0; k < parameters.tunable.size(); ++k) {
+    if (!parameters.choices[k].empty()) continue;
+    const int i = parameters.tunable[k];
+    const auto kk = static_cast<Eigen::Index>(k);
+    at.push_back(i);
+    step.push_back(1e-4 * (parameters.upper[kk] - parameters.lower[kk]));
+    post.names.push_back(static_cast<std::size_t>(i) < parameters.names.size()
+                             ? parameters.names[static_cast<std::size_t>(i)]
+                             : "phi" + std::to_string(i));
+  }
+  const auto K = static_cast<Eigen::Index>(at.size());
+  post.mean.resize(K);
+  for (Eigen::Index a = 0; a < K; ++a) post.mean[a] = parameters.values[at[static_cast<std::size_t>(a)]];
+  post.covariance = MatrixXd::Constant(K, K, std::numeric_limits<double>::quiet_NaN());
+  if (K == 0) return post;
+  std::vector<gp::Gp> g = gps;
+  const auto E = static_cast<Eigen::Index>(g.size());
+  // L at phi* + sum_a d_a step_a e_a.
+  auto L = [&](const std::vector<std::pair<Eigen::Index, int>>& moves) {
+    VectorXd phi = parameters.values;
+    for (const auto& [a, d] : moves) phi[at[static_cast<std::size_t>(a)]] += d * step[static_cast<std::size_t>(a)];
+    try {
+      prior.check_phi(phi);
+    } catch (const InvalidArgument&) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    long bad = 0;
+    const MatrixXd t = data.dx - prior_outputs(prior, data.x, data.u, phi, &bad);
+    if (bad) return std::numeric_limits<double>::quiet_NaN();
+    double sum = 0;
+    for (Eigen::Index i = 0; i < E; ++i) {
+      auto& gi = g[static_cast<std::size_t>(i)];
+      gi.set_targets(t.col(i));
+      sum += gi.log_marginal_likelihood();
+    }
+    return sum;
+  };
+  const double l0 = L({});
+  MatrixXd A(K, K);  // -H
+  for (Eigen::Index a = 0; a < K; ++a) {
+    const double sa = step[static_cast<std::size_t>(a)];
+    A(a, a) = -(L({{a, 1}}) - 2 * l0 + L({{a, -1}})) / (sa * sa);
+    for (Eigen::Index b = 0; b < a; ++b) {
+      const double sb = step[static_cast<std::size_t>(b)];
+      A(a, b) = A(b, a) = -(L({{a, 1}, {b, 1}}) - L({{a, 1}, {b, -1}}) - L({{a, -1}, {b, 1}}) +
+                            L({{a, -1}, {b, -1}})) /
+                          (4 * sa * sb);
+    }
+  }
+  if (!A.allFinite()) return post;
+  // The flat prior over each search interval enters as a Gaussian of its variance (width^2 / 12):
+  // a direction the data do not pin down keeps about the prior's spread, and no direction is
+  // allowed more than it (an indefinite -H, phi* not at an exact optimum).
+  double min_prior_precision = std::numeric_limits<double>::infinity();
+  for (Eigen::Index a = 0; a < K; ++a) {
+    const double width = 1e4 * step[static_cast<std::size_t>(a)];
+    const double precision = 12.0 / (width * width);
+    A(a, a) += precision;
+    min_prior_precision = std::min(min_prior_precision, precision);
+  }
+  const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(A);
+  const VectorXd lambda = eig.eigenvalues().cwiseMax(min_prior_precision);
+  post.covariance =
+      eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+  return post;
 }
 
 }  // namespace drops::model

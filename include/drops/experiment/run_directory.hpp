@@ -216,6 +216,12 @@ struct EpisodeResult {
   bool random_policy = false;  ///< theta was drawn at random (episode 1 of the gp variant)
   std::vector<double> phi;     ///< prior parameters phi used by the model (dim = phi_names)
   std::map<std::string, double> metrics;  ///< the task's per-episode metrics (NaN when null)
+  /// GP-MI's posterior over the continuous tunable phi (summary.json "phi_posterior",
+  /// model::PhiPosterior): their names, standard deviations (units of phi) and correlation
+  /// matrix (names x names); empty when the episode's model had none.
+  std::vector<std::string> posterior_names;
+  std::vector<double> posterior_sd;
+  std::vector<std::vector<double>> posterior_correlation;
   /// Where the real return fell among the model's predicted rollouts' returns (summary.json
   /// "calibration", algo::Calibration): has_calibration is false when no model predicted it.
   bool has_calibration = false;

@@ -56,6 +56,9 @@ struct ModelSummary {
   int rounds = 0;                ///< alternating GP-MI rounds performed
   long rprop_iterations = 0;     ///< Rprop iterations over all fits
   long nonfinite_prior_outputs = 0;  ///< simulator outputs that were NaN/inf (phi rejected there)
+  /// gp_mi with continuous tunable parameters: how sure the model is of them (phi_posterior, at
+  /// the final fit); empty otherwise.
+  PhiPosterior phi_posterior;
   double seconds = 0;            ///< wall-clock time of learn()
   std::string BriefReport() const;
 };

@@ -94,6 +94,35 @@ struct GpMiSummary {
   long nonfinite_prior_outputs = 0;  ///< simulator outputs that were NaN/inf (phi rejected there)
 };
 
+/// How sure GP-MI is of phi: the Laplace approximation of the posterior over the continuous
+/// tunable parameters (flat prior within the bounds) at phi*, from the joint log likelihood
+/// L(phi) = sum_i log p(dx_i - M_i(X; phi) | X, h_i) of the E output GPs with their kernels fixed
+/// at their fit: covariance = (-H + P0)^-1, H the Hessian of L at phi* (central finite
+/// differences, steps of 1e-4 of each parameter's search interval) and P0 = diag(12 / width^2),
+/// the flat prior over each search interval as a Gaussian of the same variance; the eigenvalues
+/// are floored at the smallest prior precision. A direction in which L is flat (two parameters
+/// that enter the dynamics only through their product, a parameter the data do not excite) keeps
+/// about the prior's spread (width / sqrt(12)), so the parameters involved show a standard
+/// deviation of the order of their interval and a correlation of about +-1 (the trade-off), where
+/// a parameter the data pin down has one orders of magnitude smaller. Units: those of phi.
+struct PhiPosterior {
+  std::vector<std::string> names;  ///< the continuous tunable parameters (dim K)
+  VectorXd mean;                   ///< phi* on them (dim K)
+  MatrixXd covariance;             ///< K x K
+  VectorXd stddev() const;         ///< sqrt of the diagonal (dim K)
+  MatrixXd correlation() const;    ///< K x K, 1 on the diagonal
+  bool empty() const { return names.empty(); }
+};
+
+/// The PhiPosterior at parameters.values (phi*), for the continuous tunable entries of phi
+/// (discrete ones are held at their value; none: an empty posterior). data: the transitions the
+/// GPs were fitted on (gp_in, x, u, dx); gps: the E output GPs fitted at phi* on data.gp_in (not
+/// modified: copies are evaluated). A stencil point the prior rejects (check_phi) or that gives a
+/// non-finite likelihood makes its parameters' entries NaN. Costs 2K^2 + 1 evaluations of the
+/// prior on the data and E O(N^2) solves each. Thread-safe (reads only).
+PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
+                           const Dataset& data, const std::vector<gp::Gp>& gps);
+
 /// log sum_i exp(v_i), computed stably (max shift). Returns -inf for an empty or all -inf vector.
 /// Thread-safe.
 double log_sum_exp(const VectorXd& v);
