@@ -80,8 +80,8 @@ model::ModelOptions run_model_options() {
   experiment::Registry registry;
   experiment::register_builtin_algorithms(registry);
   hexapod::register_task(registry);
-  return experiment::black_drops_options(
-             experiment::load_settings(registry, "task: hexapod\n", {}))
+  return experiment::black_drops_options(registry,
+                                         experiment::load_settings(registry, "task: hexapod\n", {}))
       .model;
 }
 

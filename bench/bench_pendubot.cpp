@@ -15,19 +15,24 @@ using namespace drops;
 
 namespace {
 
-/// The default pendubot experiment of the drops command line.
-experiment::Experiment default_experiment() {
+/// The built-in algorithms and the pendubot, as the drops command line registers them.
+const experiment::Registry& registry() {
   static experiment::Registry registry;
   if (registry.task_names().empty()) {
     experiment::register_builtin_algorithms(registry);
     pendubot::register_task(registry);
   }
-  return experiment::make_experiment(registry, experiment::load_settings(registry, "", {}));
+  return registry;
+}
+
+/// The default pendubot experiment of the drops command line.
+experiment::Experiment default_experiment() {
+  return experiment::make_experiment(registry(), experiment::load_settings(registry(), "", {}));
 }
 
 struct Setup {
   experiment::Experiment e = default_experiment();
-  algo::BlackDropsOptions algo = experiment::black_drops_options(e.settings);
+  algo::BlackDropsOptions algo = experiment::black_drops_options(registry(), e.settings);
   std::shared_ptr<const rollout::Task> task = e.setup.task;
   std::shared_ptr<const model::MeanFunction> prior = e.setup.prior;
   std::unique_ptr<policy::Policy> pol = e.setup.policy->clone();

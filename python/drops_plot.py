@@ -5,8 +5,9 @@ Every statistic is computed by the C++ side; this script only draws.
 
   drops_plot.py report TABLE_CSV OUTPUT_PNG [--ylabel LABEL]
       The paper's Fig. 3 form from returns.csv (or a task metric's table, e.g. speed.csv): one
-      panel per panel_title, one line per variant_label, in the table's row order, median with
-      the 25-75 % band against interaction time.
+      panel per panel_title, one line per variant_label in its variant_colour (the variant's
+      declared colour; a free one when empty), in the table's row order, median with the 25-75 %
+      band against interaction time.
   drops_plot.py run PLOT_DATA_JSON OUTPUT_DIR
       returns.png, phi.png, the task metric's figure and trajectories-NNN.png of one run, from the
       plot-data.json that `drops plot` writes with drops's run-directory reader; with body
@@ -42,11 +43,10 @@ except ImportError as exc:  # reported by drops as "needs Debian's python3-matpl
     print(f"drops_plot.py: {exc}", file=sys.stderr)
     sys.exit(3)
 
+# Colours of the variants that declare none (drops records each variant's declared colour in
+# summary.json; returns.csv carries it as variant_colour).
 COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#9467bd", "#ff7f0e", "#8c564b",
           "#e377c2", "#17becf", "#bcbd22"]
-# The colours of the algorithms of paper §V (variant names of drops report), in COLORS' order.
-VARIANT_COLORS = {"gp_mi": "#1f77b4", "gp_prior": "#d62728", "mi": "#2ca02c", "gp": "#7f7f7f",
-                  "ite": "#9467bd", "pilco": "#ff7f0e", "pilco_prior": "#17becf"}
 plt.rcParams.update({
     "font.size": 11,
     "axes.titlesize": 12,
@@ -72,6 +72,30 @@ def save(fig, path):
 
 # ---------------------------------------------------------------- drops report
 
+def variant_colors(rows):
+    """{variant: colour} of the rows of a report table (returns.csv), in the table's order.
+
+    A variant keeps the colour it declared (variant_colour) whatever else the figure holds (a
+    figure with PILCO with priors and one without draws PILCO alike), unless an earlier variant
+    took it (variants split by a setting, "gp_mi rollouts.count=3" after "gp_mi"); the others
+    take the colours the declared ones leave free, in COLORS' order."""
+    variants, declared = [], {}
+    for r in rows:
+        if r["variant"] not in variants:
+            variants.append(r["variant"])
+        if r.get("variant_colour"):
+            declared[r["variant"]] = r["variant_colour"]
+    color = {}
+    for v in variants:
+        if declared.get(v) and declared[v] not in color.values():
+            color[v] = declared[v]
+    spare = [c for c in COLORS if c not in color.values()]
+    for v in variants:
+        if v not in color:
+            color[v] = spare.pop(0) if spare else COLORS[len(color) % len(COLORS)]
+    return color
+
+
 def plot_report(returns_csv, output_png, ylabel="return"):
     with open(returns_csv, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -90,13 +114,7 @@ def plot_report(returns_csv, output_png, ylabel="return"):
             variants.append(r["variant"])
         label[r["variant"]] = r.get("variant_label") or r["variant"]
         title[r["prior"]] = r.get("panel_title") or r["prior"]
-    # Each known algorithm keeps its colour whatever else the figure holds (a figure with PILCO
-    # with priors and one without draw PILCO alike); other variants take the remaining colours.
-    color = {v: VARIANT_COLORS[v] for v in variants if v in VARIANT_COLORS}
-    spare = [c for c in COLORS if c not in color.values()]
-    for v in variants:
-        if v not in color:
-            color[v] = spare.pop(0) if spare else COLORS[len(color) % len(COLORS)]
+    color = variant_colors(rows)
 
     n = len(priors)
     ncols = n if n <= 3 else (2 if n == 4 else 3)

@@ -20,7 +20,8 @@ std::vector<algo::EpisodeRecord> run(int threads, const std::vector<std::string>
   algo::BlackDropsCallbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
   algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+                        e.setup.prior_parameters,
+                        experiment::black_drops_options(fixtures::registry(), e.settings), cb);
   return records;
 }
 
@@ -35,7 +36,8 @@ algo::BlackDropsState state_after(const std::vector<std::string>& overrides, int
     if (st.episodes_done == done) saved = st;
   };
   algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+                        e.setup.prior_parameters,
+                        experiment::black_drops_options(fixtures::registry(), e.settings), cb);
   return saved;
 }
 
@@ -47,9 +49,9 @@ std::vector<algo::EpisodeRecord> resumed_from(const std::vector<std::string>& ov
   std::vector<algo::EpisodeRecord> records;
   algo::BlackDropsCallbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
-  algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb,
-                        &saved);
+  algo::run_black_drops(
+      e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior, e.setup.prior_parameters,
+      experiment::black_drops_options(fixtures::registry(), e.settings), cb, &saved);
   return records;
 }
 
@@ -64,7 +66,7 @@ class DeterministicPriorSearch : public ::testing::Test {
   std::unique_ptr<model::DynamicsModel> model =
       model::make_prior_only_model(e.setup.prior, e.setup.prior_parameters);
   algo::PolicySearchOptions o = [this] {
-    auto opts = experiment::black_drops_options(e.settings).search;
+    auto opts = experiment::black_drops_options(fixtures::registry(), e.settings).search;
     opts.rollouts.sample = false;
     opts.reevaluation.rollouts = 1;
     return opts;
@@ -152,9 +154,10 @@ TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisy
   const auto& task = e.setup.task;
   const rollout::System& real = *e.setup.real;
   const policy::Policy& pol = *e.setup.policy;
-  const auto algo_options = experiment::black_drops_options(e.settings);
+  const auto algo_options = experiment::black_drops_options(fixtures::registry(), e.settings);
   // A GP model learned on 3 random episodes: wide predictive variances, so rollouts are noisy.
-  auto model = model::make_model(algo_options.model, task, nullptr, e.setup.prior_parameters);
+  auto model = algo_options.model_factory(algo_options.model, task, nullptr,
+                                          e.setup.prior_parameters);
   std::vector<Transition> data;
   for (std::uint64_t k = 0; k < 3; ++k) {
     Rng rng(derive_seed(11, {k}));
@@ -204,8 +207,8 @@ TEST(BlackDrops, ACustomModelFactoryIsUsedForEveryLearning) {
                                        "optimizer.prior_optimizations=1"});
   class Counting final : public model::DynamicsModel {
    public:
-    Counting(std::unique_ptr<model::DynamicsModel> m, int* learns) : m_(std::move(m)), learns_(learns) {}
-    model::ModelType type() const override { return m_->type(); }
+    Counting(std::unique_ptr<model::DynamicsModel> m, int* learns)
+        : m_(std::move(m)), learns_(learns) {}
     model::ModelSummary learn(const std::vector<Transition>& d,
                               const model::ModelProgress& p) override {
       ++*learns_;
@@ -226,7 +229,7 @@ TEST(BlackDrops, ACustomModelFactoryIsUsedForEveryLearning) {
     std::unique_ptr<model::DynamicsModel> m_;
     int* learns_;
   };
-  auto o = experiment::black_drops_options(e.settings);
+  auto o = experiment::black_drops_options(fixtures::registry(), e.settings);
   std::vector<algo::EpisodeRecord> plain, custom;
   algo::BlackDropsCallbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { plain.push_back(r); };
@@ -291,7 +294,8 @@ TEST(BlackDrops, ARealEpisodeThatGoesNonFiniteEndsThereIsNotSolvedAndAddsOnlyIts
   cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
   cb.on_state = [&](const algo::BlackDropsState& st) { data_sizes.push_back(st.data.size()); };
   algo::run_black_drops(e.setup.task, real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+                        e.setup.prior_parameters,
+                        experiment::black_drops_options(fixtures::registry(), e.settings), cb);
   ASSERT_EQ(records.size(), 3u);
   const int H = e.setup.task->horizon();
   EXPECT_EQ(records[0].real.nonfinite_step, -1);
@@ -346,8 +350,8 @@ TEST(BlackDrops, APriorThatCannotSimulateStopsTheRunBeforeTheFirstRealEpisode) {
     std::string what;
     try {
       algo::run_black_drops(e.setup.task, real, *e.setup.policy, e.setup.prior,
-                            e.setup.prior_parameters, experiment::black_drops_options(e.settings),
-                            cb);
+                            e.setup.prior_parameters,
+                            experiment::black_drops_options(fixtures::registry(), e.settings), cb);
     } catch (const Error& err) {
       what = err.what();
     }
@@ -362,7 +366,8 @@ TEST(BlackDrops, APriorThatCannotSimulateStopsTheRunBeforeTheFirstRealEpisode) {
                                         "optimizer.prior_optimizations=1"});
   const Counting real(*ok.setup.real);
   algo::run_black_drops(ok.setup.task, real, *ok.setup.policy, ok.setup.prior,
-                        ok.setup.prior_parameters, experiment::black_drops_options(ok.settings));
+                        ok.setup.prior_parameters,
+                        experiment::black_drops_options(fixtures::registry(), ok.settings));
   EXPECT_EQ(real.episodes, 1);
 }
 
@@ -500,7 +505,8 @@ TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
                                        "optimizer.trust_region_min=0.25"};
   const auto r = run(1, ov);
   ASSERT_EQ(r.size(), 7u);
-  const auto o = experiment::black_drops_options(fixtures::experiment(ov).settings);
+  const auto o =
+      experiment::black_drops_options(fixtures::registry(), fixtures::experiment(ov).settings);
   double region = 1.0, best_return = r[0].real_return;
   VectorXd best = r[0].theta;
   int shrinks = 0;

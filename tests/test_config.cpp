@@ -7,6 +7,8 @@
 #include "drops/core/errors.hpp"
 #include "drops/pendubot/pendubot.hpp"
 #include "drops/experiment/campaign.hpp"
+#include "drops/model/gp_dynamics.hpp"
+#include "drops/model/simulator_model.hpp"
 #include "fixtures.hpp"
 #include "schema_ranges.hpp"
 
@@ -25,7 +27,19 @@ std::string error_of(const std::string& yaml, const std::vector<std::string>& ov
 }
 
 algo::BlackDropsOptions algo_of(const experiment::Settings& s) {
-  return experiment::black_drops_options(s);
+  return experiment::black_drops_options(registry(), s);
+}
+
+/// The built-in variant of the model that a's factory builds for experiment e ("?" for another
+/// model).
+std::string built_model(const algo::BlackDropsOptions& a, const experiment::Experiment& e) {
+  const auto m = a.model_factory(a.model, e.setup.task, a.uses_prior() ? e.setup.prior : nullptr,
+                                 e.setup.prior_parameters);
+  if (const auto* g = dynamic_cast<const model::GpDynamicsModel*>(m.get()))
+    return model::to_string(g->type());
+  if (const auto* s = dynamic_cast<const model::SimulatorModel*>(m.get()))
+    return model::to_string(s->type());
+  return "?";
 }
 
 /// A task of the tests: its own key, and its own defaults of two shared keys.
@@ -66,7 +80,9 @@ TEST(Config, DefaultsAreThePaperSettings) {
   const auto a = algo_of(e.settings);
   EXPECT_EQ(e.task, "pendubot");
   EXPECT_EQ(e.algorithm, "black_drops");
-  EXPECT_EQ(a.model.type, model::ModelType::kGpMi);
+  EXPECT_EQ(e.variant, "gp_mi");
+  EXPECT_TRUE(a.uses_prior());
+  EXPECT_EQ(built_model(a, e), "gp_mi");
   EXPECT_EQ(e.setup.prior_label, "tunable-useful");
   EXPECT_EQ(a.episodes, 10);
   EXPECT_EQ(e.seed, 1u);
@@ -130,7 +146,8 @@ TEST(Config, YamlAndOverridesApplyInOrder) {
                           {"episodes=3", "prior.bounds.m2=[0.1, 0.9]", "model.type=gp"});
   const auto e = experiment::make_experiment(registry(), s);
   const auto a = algo_of(s);
-  EXPECT_EQ(a.model.type, model::ModelType::kGp);
+  EXPECT_EQ(built_model(a, e), "gp");
+  EXPECT_FALSE(a.uses_prior());
   EXPECT_EQ(e.variant, "gp");
   EXPECT_EQ(a.episodes, 3);
   EXPECT_DOUBLE_EQ(e.setup.prior_parameters.values[0], 0.6);

@@ -339,7 +339,6 @@ TEST(Models, RejectMissingPriorAndBadData) {
   auto m = model::make_model(o, task, nullptr, {});
   Transition t{VectorXd::Zero(3), VectorXd::Zero(1), VectorXd::Zero(4)};
   EXPECT_THROW(m->learn({t}), InvalidArgument);
-  EXPECT_THROW(model::parse_model_type("gpmi"), InvalidArgument);
 }
 
 TEST(GpMi, ExhaustiveSearchOverADiscreteParameterPicksTheActualValue) {

@@ -632,7 +632,7 @@ TEST(Report, CsvFilesHoldTheAggregatedNumbers) {
   const std::string returns = read(tmp.path() / "returns.csv");
   EXPECT_EQ(returns.substr(0, returns.find('\n')),
             "variant,prior,episode,interaction_time_s,runs,median,q25,q75,variant_label,"
-            "panel_title");
+            "panel_title,variant_colour");
   auto ret = read_csv(tmp.path() / "returns.csv", 3);
   ASSERT_EQ(ret.size(), 9u);  // 3 groups x 3 episodes
   const auto& r1 = ret.at("gp_mi,tunable-useful,1");

@@ -195,7 +195,6 @@ class Climb final : public rollout::Task {
 class ClimbModel final : public model::DynamicsModel {
  public:
   explicit ClimbModel(double top) : top_(top) {}
-  model::ModelType type() const override { return model::ModelType::kGp; }
   model::ModelSummary learn(const std::vector<Transition>&, const model::ModelProgress&) override {
     return {};
   }

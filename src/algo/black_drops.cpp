@@ -233,14 +233,16 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   check_size("policy observation_dim vs task observation_dim", task->observation_dim(),
              policy.observation_dim());
   const auto t_run = Clock::now();
+  if (options.uses_prior() && !prior)
+    throw InvalidArgument("run_black_drops: the model uses a simulator prior but prior is null");
   auto model = options.model_factory
-                   ? options.model_factory(options.model, task, prior, prior_parameters)
+                   ? options.model_factory(options.model, task,
+                                           options.uses_prior() ? prior : nullptr, prior_parameters)
                    : model::make_model(options.model, task, prior, prior_parameters);
   if (!model) throw InvalidArgument("run_black_drops: the model factory returned no model");
   Progress p = start_or_resume(options, policy.param_dim(), *model, resume);
   const std::unique_ptr<model::DynamicsModel> prior_only =
-      model::uses_prior(options.model.type)
-          ? model::make_prior_only_model(prior, prior_parameters) : nullptr;
+      options.uses_prior() ? model::make_prior_only_model(prior, prior_parameters) : nullptr;
   auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
   auto status = [&](int episode, const char* phase, long evals, double best) {
     if (callbacks.on_status) callbacks.on_status(Status{episode, phase, evals, best});

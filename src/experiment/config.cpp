@@ -74,8 +74,9 @@ std::vector<KeySpec> build_base_keys() {
   add({"output", "string", "runs", 0, 0, {}, "-", "parent directory of run directories"});
   add({"name", "string", "", 0, 0, {}, "-",
        "run directory name (empty = <task>-<variant>-<prior>-seed<seed>-<date>-<time>)"});
-  add({"model.type", "enum", model::to_string(m.type), 0, 0, {"gp", "gp_prior", "gp_mi", "mi"}, "-",
-       "gp: Black-DROPS; gp_prior: with priors; gp_mi: with GP-MI; mi: with MI (no GP)"});
+  // Allowed values and help: the registry's model variants (registered_base_keys).
+  add({"model.type", "enum", model::to_string(m.type), 0, 0, {}, "-",
+       "the model variant of Black-DROPS, one of the registered model variants"});
   add({"model.rprop.iterations", "int", num(m.rprop.max_iterations), 1, 100000, {}, "-",
        "Rprop iterations of the final kernel fit per output GP"});
   add({"model.rprop.tolerance", "double", num(m.rprop.tolerance), 0, big, {}, "nats",
@@ -381,6 +382,21 @@ bool known_anywhere(const Registry& registry, const std::string& key) {
   return registry.task_of_key(key) != nullptr;
 }
 
+/// base_keys() with the values and help of model.type that `registry` offers (its model
+/// variants, in registration order).
+std::vector<KeySpec> registered_base_keys(const Registry& registry) {
+  std::vector<KeySpec> keys = base_keys();
+  for (auto& k : keys) {
+    if (k.key != "model.type") continue;
+    k.allowed = registry.model_variant_names();
+    std::string doc;
+    for (const auto& n : k.allowed)
+      doc += (doc.empty() ? "" : "; ") + n + ": " + registry.model_variant(n).description;
+    if (!doc.empty()) k.doc = doc;
+  }
+  return keys;
+}
+
 }  // namespace
 
 const std::vector<KeySpec>& base_keys() {
@@ -389,7 +405,7 @@ const std::vector<KeySpec>& base_keys() {
 }
 
 std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
-  std::vector<KeySpec> s = base_keys();
+  std::vector<KeySpec> s = registered_base_keys(registry);
   for (const auto& a : registry.algorithm_names())
     for (auto& k : registry.algorithm(a).keys()) s.push_back(std::move(k));
   for (auto& k : registry.task(task).keys()) s.push_back(std::move(k));
@@ -577,7 +593,7 @@ void markdown_table(std::ostringstream& o, const std::vector<KeySpec>& keys) {
 std::string schema_markdown(const Registry& registry) {
   std::ostringstream o;
   o << "## The experiment and the policy search\n\n";
-  markdown_table(o, base_keys());
+  markdown_table(o, registered_base_keys(registry));
   for (const auto& a : registry.algorithm_names()) {
     const auto keys = registry.algorithm(a).keys();
     if (keys.empty()) continue;

@@ -29,12 +29,14 @@ opt::CmaesOptions cmaes_options(const Settings& st) {
   return c;
 }
 
-algo::BlackDropsOptions black_drops_options(const Settings& st) {
+algo::BlackDropsOptions black_drops_options(const Registry& registry, const Settings& st) {
   algo::BlackDropsOptions a;
   a.episodes = static_cast<int>(get_int(st, "episodes"));
   a.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
+  const ModelVariant& variant = registry.model_variant(st.at("model.type"));
+  a.model_factory = variant.factory;
+  a.model_factory_uses_prior = variant.uses_prior;
   auto& m = a.model;
-  m.type = model::parse_model_type(st.at("model.type"));
   m.rprop.max_iterations = static_cast<int>(get_int(st, "model.rprop.iterations"));
   m.rprop.tolerance = get_double(st, "model.rprop.tolerance");
   m.rprop.patience = static_cast<int>(get_int(st, "model.rprop.patience"));
@@ -102,23 +104,56 @@ algo::PilcoOptions pilco_options(const Settings& st, bool with_prior) {
 
 namespace {
 
-/// Black-DROPS and its variants (paper Algorithm 1; the model of model.type).
+/// The model variants of the paper (§IV, §V-A), built by model::make_model: their names, the
+/// help of model.type, and how reports show them (legend, order, colour), in one place.
+std::vector<ModelVariant> builtin_model_variants() {
+  const auto made_as = [](model::ModelType type) -> algo::ModelFactory {
+    return [type](const model::ModelOptions& options, std::shared_ptr<const rollout::Task> task,
+                  std::shared_ptr<const model::MeanFunction> prior,
+                  const model::PriorParameters& parameters) {
+      model::ModelOptions o = options;
+      o.type = type;
+      return model::make_model(o, std::move(task), std::move(prior), parameters);
+    };
+  };
+  return {
+      {"gp", "Black-DROPS", {"Black-DROPS", 3, "#7f7f7f"}, false, made_as(model::ModelType::kGp)},
+      {"gp_prior", "with priors", {"Black-DROPS with priors", 1, "#d62728"}, true,
+       made_as(model::ModelType::kGpPrior)},
+      {"gp_mi", "with GP-MI", {"Black-DROPS with GP-MI", 0, "#1f77b4"}, true,
+       made_as(model::ModelType::kGpMi)},
+      {"mi", "with MI (no GP)", {"Black-DROPS with MI", 2, "#2ca02c"}, true,
+       made_as(model::ModelType::kMi)},
+  };
+}
+
+/// Black-DROPS and its variants (paper Algorithm 1; the model variant of model.type, looked up
+/// in the registry that owns this plugin).
 class BlackDropsPlugin final : public AlgorithmPlugin {
  public:
+  explicit BlackDropsPlugin(const Registry& registry) : registry_(registry) {}
   std::string name() const override { return "black_drops"; }
   std::string description() const override {
-    return "Black-DROPS (paper Algorithm 1) with the model of model.type: gp, gp_prior, gp_mi "
-           "or mi";
+    return "Black-DROPS (paper Algorithm 1) with the model of model.type, one of the registered "
+           "model variants";
   }
   std::string variant(const Settings& s) const override { return s.at("model.type"); }
-  bool uses_prior(const Settings& s) const override { return s.at("model.type") != "gp"; }
+  VariantStyle variant_style(const Settings& s) const override {
+    return registry_.model_variant(s.at("model.type")).style;
+  }
+  bool uses_prior(const Settings& s) const override {
+    return registry_.model_variant(s.at("model.type")).uses_prior;
+  }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
-    const algo::BlackDropsOptions o = black_drops_options(s);
-    if (model::uses_prior(o.model.type) && !setup.prior)
+    const algo::BlackDropsOptions o = black_drops_options(registry_, s);
+    if (o.uses_prior() && !setup.prior)
       throw ConfigError("config key 'model.type' = '" + s.at("model.type") +
                         "': this task has no simulator prior; use model.type gp");
     return std::make_unique<algo::BlackDrops>(o);
   }
+
+ private:
+  const Registry& registry_;  // owns this plugin
 };
 
 /// The direct search on the real system (algo::DirectSearch).
@@ -135,6 +170,9 @@ class DirectPlugin final : public AlgorithmPlugin {
              "algorithm direct: a file of policy parameters, one per line (e.g. a run's "
              "episodes/NNN/policy.csv), evaluated first and kept unless beaten (empty = the "
              "centre of the box, not evaluated on its own)"}};
+  }
+  VariantStyle variant_style(const Settings&) const override {
+    return {"CMA-ES on the real system (no model)", 7, "#8c564b"};
   }
   bool uses_prior(const Settings&) const override { return false; }
   bool uses_model(const Settings&) const override { return false; }
@@ -238,6 +276,10 @@ class PilcoPlugin final : public AlgorithmPlugin {
          "inputs, a random subset of the data; pilco-matlab's double-pendulum swing-up: 300)"},
     };
   }
+  VariantStyle variant_style(const Settings&) const override {
+    return with_prior_ ? VariantStyle{"PILCO with priors", 5, "#17becf"}
+                       : VariantStyle{"PILCO", 6, "#ff7f0e"};
+  }
   bool uses_prior(const Settings&) const override { return with_prior_; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
     const std::string head = "config key 'algorithm' = '" + name() + "': ";
@@ -265,7 +307,8 @@ class PilcoPlugin final : public AlgorithmPlugin {
 }  // namespace
 
 void register_builtin_algorithms(Registry& registry) {
-  registry.add_algorithm(std::make_unique<BlackDropsPlugin>());
+  registry.add_algorithm(std::make_unique<BlackDropsPlugin>(registry));
+  for (auto& v : builtin_model_variants()) registry.add_model_variant(std::move(v));
   registry.add_algorithm(std::make_unique<DirectPlugin>());
   registry.add_algorithm(make_ite_plugin());
   registry.add_algorithm(std::make_unique<PilcoPlugin>(false));
@@ -310,6 +353,7 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
   }
   e.runner = algorithm.make(st, e.setup);
   e.uses_prior = algorithm.uses_prior(st);
+  e.variant_style = algorithm.variant_style(st);
   e.uses_model = algorithm.uses_model(st);
   e.report = run_report_info(task.report_info(st), e.uses_prior, e.uses_model);
   return e;

@@ -173,6 +173,7 @@ class ItePlugin final : public AlgorithmPlugin {
   }
   std::vector<KeySpec> keys() const override { return ite_keys(); }
   std::string variant(const Settings&) const override { return "ite"; }
+  VariantStyle variant_style(const Settings&) const override { return {"IT&E", 4, "#9467bd"}; }
   bool uses_prior(const Settings&) const override { return true; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
     algo::IteOptions o = ite_options(s, setup);

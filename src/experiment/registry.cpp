@@ -11,7 +11,25 @@ std::string joined(const std::vector<std::string>& v) {
   for (const auto& a : v) s += (s.empty() ? "" : ", ") + a;
   return s;
 }
+
+bool valid_name(const std::string& name) {
+  return !name.empty() &&
+         name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") == std::string::npos;
+}
 }  // namespace
+
+bool VariantStyle::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (rank < 0) return fail("rank must be >= 0, got " + std::to_string(rank));
+  if (!colour.empty() &&
+      (colour.size() != 7 || colour[0] != '#' ||
+       colour.find_first_not_of("0123456789abcdefABCDEF", 1) != std::string::npos))
+    return fail("colour must be empty or #rrggbb, got '" + colour + "'");
+  return true;
+}
 
 algo::Problem TaskSetup::problem() const {
   algo::Problem p;
@@ -44,8 +62,7 @@ ReportInfo run_report_info(ReportInfo task, bool uses_prior, bool uses_model) {
 void Registry::add_task(std::unique_ptr<TaskPlugin> task) {
   if (!task) throw InvalidArgument("Registry::add_task: null task");
   const std::string name = task->name();
-  if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") !=
-                          std::string::npos)
+  if (!valid_name(name))
     throw InvalidArgument("Registry::add_task: task name '" + name +
                           "': expected lower-case letters, digits and _");
   if (has_task(name)) throw InvalidArgument("Registry::add_task: task '" + name + "' exists");
@@ -74,6 +91,10 @@ void Registry::add_algorithm(std::unique_ptr<AlgorithmPlugin> algorithm) {
   for (const auto& a : algorithms_)
     if (a->name() == name)
       throw InvalidArgument("Registry::add_algorithm: algorithm '" + name + "' exists");
+  for (const auto& m : model_variants_)
+    if (m.name == name)
+      throw InvalidArgument("Registry::add_algorithm: '" + name +
+                            "' is a model variant (reports could not tell their runs apart)");
   for (const auto& k : algorithm->keys()) {
     bool taken = task_of_key(k.key) != nullptr;
     for (const auto& b : base_keys()) taken = taken || b.key == k.key;
@@ -84,6 +105,34 @@ void Registry::add_algorithm(std::unique_ptr<AlgorithmPlugin> algorithm) {
                             k.key + "', which exists already");
   }
   algorithms_.push_back(std::move(algorithm));
+}
+
+void Registry::add_model_variant(ModelVariant variant) {
+  const std::string head = "Registry::add_model_variant: model variant '" + variant.name + "': ";
+  if (!valid_name(variant.name))
+    throw InvalidArgument(head + "expected lower-case letters, digits and _");
+  for (const auto& m : model_variants_)
+    if (m.name == variant.name) throw InvalidArgument(head + "exists");
+  for (const auto& a : algorithms_)
+    if (a->name() == variant.name)
+      throw InvalidArgument(head + "is an algorithm (reports could not tell their runs apart)");
+  if (!variant.factory) throw InvalidArgument(head + "no factory");
+  std::string why;
+  if (!variant.style.IsValid(&why)) throw InvalidArgument(head + "style: " + why);
+  model_variants_.push_back(std::move(variant));
+}
+
+const ModelVariant& Registry::model_variant(const std::string& name) const {
+  for (const auto& m : model_variants_)
+    if (m.name == name) return m;
+  throw ConfigError("config key 'model.type' = '" + name +
+                    "': unknown model variant (available: " + joined(model_variant_names()) + ")");
+}
+
+std::vector<std::string> Registry::model_variant_names() const {
+  std::vector<std::string> v;
+  for (const auto& m : model_variants_) v.push_back(m.name);
+  return v;
 }
 
 const TaskPlugin& Registry::task(const std::string& name) const {

@@ -59,8 +59,8 @@ std::string panel_title(const GroupReport& g) {
 }
 
 bool group_before(const GroupReport& a, const GroupReport& b) {
-  return std::tuple(a.report.panel.rank, a.prior, variant_rank(a.model_type), a.variant) <
-         std::tuple(b.report.panel.rank, b.prior, variant_rank(b.model_type), b.variant);
+  return std::tuple(a.report.panel.rank, a.prior, a.variant_style.rank, a.variant) <
+         std::tuple(b.report.panel.rank, b.prior, b.variant_style.rank, b.variant);
 }
 
 Quartiles quartiles(const std::vector<double>& v) {
@@ -90,23 +90,8 @@ double quantile(std::vector<double> values, double p) {
   return values[lo] + frac * (values[hi] - values[lo]);
 }
 
-std::string variant_long_name(const std::string& m) {
-  if (m == "gp_mi") return "Black-DROPS with GP-MI";
-  if (m == "gp_prior") return "Black-DROPS with priors";
-  if (m == "mi") return "Black-DROPS with MI";
-  if (m == "gp") return "Black-DROPS";
-  if (m == "direct") return "CMA-ES on the real system (no model)";
-  if (m == "ite") return "IT&E";
-  if (m == "pilco") return "PILCO";
-  if (m == "pilco_prior") return "PILCO with priors";
-  return m;
-}
-
-int variant_rank(const std::string& m) {
-  static const std::vector<std::string> order = {"gp_mi", "gp_prior", "mi", "gp", "ite",
-                                                  "pilco_prior", "pilco"};
-  const auto it = std::find(order.begin(), order.end(), m);
-  return it == order.end() ? 100 : static_cast<int>(it - order.begin());
+std::string variant_long_name(const VariantStyle& style, const std::string& model_type) {
+  return style.label.empty() ? model_type : style.label;
 }
 
 bool GroupReport::has_metric() const {
@@ -128,6 +113,7 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
       GroupReport g;
       g.variant = run.variant;
       g.model_type = run.model_type;
+      g.variant_style = run.variant_style;
       g.task = run.task;
       g.prior = run.report.panel.label;
       g.report = run.report;
@@ -377,21 +363,22 @@ std::string variant_label(const GroupReport& g) {
   const std::string rest = g.variant.size() > g.model_type.size()
                                ? g.variant.substr(g.model_type.size() + 1)
                                : std::string();
-  const std::string name = variant_long_name(g.model_type);
+  const std::string name = variant_long_name(g.variant_style, g.model_type);
   return rest.empty() ? name : name + ", " + rest;
 }
 
 template <class Get>
 std::string long_table(const CampaignReport& report, bool (GroupReport::*keep)() const, Get get) {
   std::string t = "variant,prior,episode,interaction_time_s,runs,median,q25,q75,variant_label,"
-                  "panel_title\n";
+                  "panel_title,variant_colour\n";
   for (const auto& g : report.groups) {
     if (keep && !(g.*keep)()) continue;
     for (const auto& e : g.episodes) {
       const Quartiles q = get(e);
-      t += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant), csv_field(g.prior),
-                       e.episode, num(e.interaction_time_s), q.runs, num(q.median), num(q.q25),
-                       num(q.q75), csv_field(variant_label(g)), csv_field(panel_title(g)));
+      t += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
+                       csv_field(g.prior), e.episode, num(e.interaction_time_s), q.runs,
+                       num(q.median), num(q.q25), num(q.q75), csv_field(variant_label(g)),
+                       csv_field(panel_title(g)), csv_field(g.variant_style.colour));
     }
   }
   return t;
@@ -599,7 +586,7 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
                            : "") +
        " median final return |" + metric_head + "\n|---|---|---:|---:|" +
        (success ? "---:|---:|---:|---:|" : "") + "---:|" + (with_metric ? "---:|" : "") + "\n";
-  std::vector<std::string> models;
+  std::vector<const GroupReport*> models;  // the first group of each model_type
   for (const auto& g : report.groups) {
     t += fmt::format("| {} | {} | {} | {} |", g.variant, panel_title(g), g.runs, g.complete);
     if (success)
@@ -610,14 +597,18 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
     t += " " + md(g.median_final_return) + " |";
     if (with_metric) t += " " + md(g.median_final_metric, 3) + " |";
     t += "\n";
-    if (std::find(models.begin(), models.end(), g.model_type) == models.end())
-      models.push_back(g.model_type);
+    if (std::none_of(models.begin(), models.end(),
+                     [&](const GroupReport* m) { return m->model_type == g.model_type; }))
+      models.push_back(&g);
   }
-  std::sort(models.begin(), models.end(), [](const auto& a, const auto& b) {
-    return std::pair(variant_rank(a), a) < std::pair(variant_rank(b), b);
+  std::sort(models.begin(), models.end(), [](const GroupReport* a, const GroupReport* b) {
+    return std::pair(a->variant_style.rank, a->model_type) <
+           std::pair(b->variant_style.rank, b->model_type);
   });
   std::vector<std::string> legend;
-  for (const auto& m : models) legend.push_back(fmt::format("{} = {}", m, variant_long_name(m)));
+  for (const auto* m : models)
+    legend.push_back(
+        fmt::format("{} = {}", m->model_type, variant_long_name(m->variant_style, m->model_type)));
   t += "\n" + join(legend, "; ") +
        (success ? ". \"not solved\": at least half of the runs never solved (never solved "
                   "counts as +∞).\n"
@@ -911,7 +902,8 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
       {"name", run.name},
       {"task", run.task},
       {"variant", run.model_type},
-      {"variant_label", variant_long_name(run.model_type)},
+      {"variant_label", variant_long_name(run.variant_style, run.model_type)},
+      {"variant_colour", run.variant_style.colour},
       {"panel_title",
        run.report.panel.title.empty() ? run.report.panel.label : run.report.panel.title},
       {"phi_names", run.phi_names},

@@ -123,6 +123,22 @@ nlohmann::json report_json(const ReportInfo& r) {
           {"phi_value_labels", labels}};
 }
 
+nlohmann::json style_json(const VariantStyle& v) {
+  return {{"label", v.label}, {"rank", v.rank}, {"colour", v.colour}};
+}
+
+/// A recorded VariantStyle; a field it lacks or that is invalid keeps `known`'s.
+VariantStyle style_from_json(const nlohmann::json& j, const VariantStyle& known) {
+  VariantStyle v = known;
+  if (j.contains("label") && j["label"].is_string()) v.label = j["label"].get<std::string>();
+  if (j.contains("rank") && j["rank"].is_number_integer() && j["rank"].get<int>() >= 0)
+    v.rank = j["rank"].get<int>();
+  VariantStyle c = v;
+  if (j.contains("colour") && j["colour"].is_string()) c.colour = j["colour"].get<std::string>();
+  if (c.IsValid(nullptr)) v = c;
+  return v;
+}
+
 std::string episode_folder(int episode) { return fmt::format("{:03d}", episode); }
 
 /// SHA-256 of a checkpoint's JSON without its "checksum" member.
@@ -331,6 +347,7 @@ void RunDirectory::start(const std::string& config_yaml) {
               {"task", e.task},
               {"algorithm", e.algorithm},
               {"model", e.variant},
+              {"variant_style", style_json(e.variant_style)},
               {"uses_prior", e.uses_prior},
               {"uses_model", e.uses_model},
               {"prior", e.setup.prior_label},
@@ -1012,6 +1029,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
     run.algorithm = config.at("algorithm");
     const AlgorithmPlugin& algorithm = registry->algorithm(run.algorithm);
     run.model_type = algorithm.variant(config);
+    run.variant_style = algorithm.variant_style(config);
     run.uses_prior = algorithm.uses_prior(config);
     run.uses_model = algorithm.uses_model(config);
     const TaskPlugin& task = registry->task(run.task);
@@ -1048,6 +1066,8 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
       if (run.task.empty()) run.task = s.value("task", std::string());
       if (run.algorithm.empty()) run.algorithm = s.value("algorithm", std::string());
       if (run.model_type.empty()) run.model_type = s.value("model", std::string());
+      if (s.contains("variant_style") && s["variant_style"].is_object())
+        run.variant_style = style_from_json(s["variant_style"], run.variant_style);
       if (!have_config) {
         run.uses_prior = s.value("uses_prior", run.model_type != "gp");
         run.uses_model = s.value("uses_model", true);

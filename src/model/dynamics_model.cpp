@@ -31,14 +31,6 @@ bool ModelOptions::IsValid(std::string* why) const {
   return mi.IsValid(why);
 }
 
-ModelType parse_model_type(const std::string& name) {
-  if (name == "gp") return ModelType::kGp;
-  if (name == "gp_prior") return ModelType::kGpPrior;
-  if (name == "gp_mi") return ModelType::kGpMi;
-  if (name == "mi") return ModelType::kMi;
-  throw InvalidArgument("unknown model type '" + name + "' (allowed: gp, gp_prior, gp_mi, mi)");
-}
-
 std::string to_string(ModelType type) {
   switch (type) {
     case ModelType::kGp: return "gp";

@@ -35,9 +35,12 @@ struct BlackDropsOptions {
   int episodes = 10;              ///< real episodes in total, including the first one, >= 1
   std::uint64_t seed = 1;         ///< the run's single seed; every random stream derives from it
   model::ModelOptions model = black_drops_model_defaults();  ///< which model variant and its settings
-  /// The model's factory (empty: model::make_model). With a prior, episode 1 still plans on the
-  /// prior alone (model::make_prior_only_model).
+  /// The model's factory (empty: model::make_model of model.type). When the model uses the
+  /// prior (uses_prior()), episode 1 plans on the prior alone (model::make_prior_only_model).
   ModelFactory model_factory;
+  /// Whether the model of model_factory uses the simulator prior (ignored without a factory:
+  /// model::uses_prior(model.type) then decides). Without it the factory gets a null prior.
+  bool model_factory_uses_prior = true;
   /// The policy search of every episode (the bound, CMA-ES, the rollouts, the start kept as a
   /// candidate, the selection by re-evaluation).
   PolicySearchOptions search;
@@ -52,6 +55,10 @@ struct BlackDropsOptions {
   int predicted_rollouts = 20;
   /// Returns true when every field is valid; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
+  /// Whether the model learned uses the simulator prior (see model_factory_uses_prior).
+  bool uses_prior() const {
+    return model_factory ? model_factory_uses_prior : model::uses_prior(model.type);
+  }
 };
 
 /// Black-DROPS's names for the shared types of algorithm.hpp.
@@ -63,16 +70,16 @@ using BlackDropsSummary = RunSummary;
 ///   episode 1: with a prior, optimise the policy on the prior alone; without, random theta;
 ///   then, for each next episode: learn the model on all transitions, optimise the policy on the
 ///   model (optimize_policy from the best real episode's theta), predict its return, run it.
-/// task, real system and policy prototype are borrowed for the call. prior may be null only for
-/// model type gp. With `resume` (a state from on_state of a run with the same options), the run
-/// continues after resume->episodes_done; the summary then covers the whole run but `seconds`
-/// only this call. A real episode whose system returns a non-finite state ends at that step
-/// (Trajectory::nonfinite_step), is not solved and adds only its finite transitions to the data.
-/// Throws InvalidArgument on invalid options, mismatched dimensions or a resume state that does
-/// not fit; Error when a model is to be learned and no finite real transition exists, and Error
-/// before the first real episode when the prior's mean propagation of the policy chosen on it
-/// goes non-finite (the prior cannot simulate it: nothing runs on the real system);
-/// exceptions from callbacks propagate. Not thread-safe (uses parallel_for internally).
+/// task, real system and policy prototype are borrowed for the call. prior may be null only when
+/// the model uses none (options.uses_prior()). With `resume` (a state from on_state of a run with
+/// the same options), the run continues after resume->episodes_done; the summary then covers the
+/// whole run but `seconds` only this call. A real episode whose system returns a non-finite state
+/// ends at that step (Trajectory::nonfinite_step), is not solved and adds only its finite
+/// transitions to the data. Throws InvalidArgument on invalid options, mismatched dimensions or a
+/// resume state that does not fit; Error when a model is to be learned and no finite real
+/// transition exists, and Error before the first real episode when the prior's mean propagation of
+/// the policy chosen on it goes non-finite (the prior cannot simulate it: nothing runs on the real
+/// system); exceptions from callbacks propagate. Not thread-safe (uses parallel_for internally).
 BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
                                   const rollout::System& real, const policy::Policy& policy,
                                   std::shared_ptr<const model::MeanFunction> prior,

@@ -36,11 +36,13 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
 /// of the model-based policy search shared by the algorithms (model.*, policy.bound, optimizer.*,
 /// rollouts.*), in documentation order; defaults come from the algorithms' Options structs.
 /// Keys whose default depends on the task have an empty default here (see
-/// TaskPlugin::shared_defaults). Thread-safe.
+/// TaskPlugin::shared_defaults); model.type allows no value here (its values are a registry's
+/// model variants, see schema()). Thread-safe.
 const std::vector<KeySpec>& base_keys();
 
-/// The schema of an experiment on `task` (a registered task): base_keys(), every registered
-/// algorithm's keys, then the task's own keys. Throws ConfigError when the task is unknown.
+/// The schema of an experiment on `task` (a registered task): base_keys() with model.type's
+/// values and help from the registry's model variants, every registered algorithm's keys, then
+/// the task's own keys. Throws ConfigError when the task is unknown.
 std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 
 /// Reads a YAML document (text) and applies key=value overrides (value parsed as YAML, so

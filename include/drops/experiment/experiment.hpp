@@ -21,6 +21,7 @@ struct Experiment {
   std::string task;           ///< task name
   std::string algorithm;      ///< algorithm name
   std::string variant;        ///< AlgorithmPlugin::variant (e.g. "gp_mi")
+  VariantStyle variant_style;  ///< AlgorithmPlugin::variant_style (label, order, colour)
   bool uses_prior = true;     ///< AlgorithmPlugin::uses_prior
   bool uses_model = true;     ///< AlgorithmPlugin::uses_model
   std::uint64_t seed = 1;
@@ -41,8 +42,10 @@ struct Experiment {
 Experiment make_experiment(const Registry& registry, const Settings& settings);
 
 /// The options of Algorithm 1 from settings (model.*, policy.bound, optimizer.*, rollouts.*,
-/// episodes, seed). Throws ConfigError when they are invalid (BlackDropsOptions::IsValid).
-algo::BlackDropsOptions black_drops_options(const Settings& settings);
+/// episodes, seed), with the factory of the model variant of model.type registered in
+/// `registry`. Throws ConfigError when they are invalid (BlackDropsOptions::IsValid) or the
+/// model variant is not registered.
+algo::BlackDropsOptions black_drops_options(const Registry& registry, const Settings& settings);
 
 /// The options of IT&E from settings (ite.*, policy.bound, episodes, seed) and the task's
 /// behaviour descriptor (setup.behaviour); reads the archive file of ite.archive. Throws

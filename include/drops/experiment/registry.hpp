@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "drops/algo/algorithm.hpp"
+#include "drops/algo/black_drops.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/ite/behaviour.hpp"
 #include "drops/pilco/task_model.hpp"
@@ -84,6 +85,38 @@ Panel model_free_panel();
 /// panel replaced by model_free_panel() when the run uses neither a model nor the prior and the
 /// task's panel is chosen by the prior. Thread-safe.
 ReportInfo run_report_info(ReportInfo task, bool uses_prior, bool uses_model);
+
+/// How reports show a variant (a model variant of Black-DROPS, or an algorithm): its name in
+/// legends, its place in tables and figures, its colour in figures. Recorded in each run's
+/// summary.json ("variant_style"), so that reports and figures need no list of variants.
+struct VariantStyle {
+  static constexpr int kUnranked = 100;  ///< the rank of a variant that states none
+  std::string label;     ///< legend name, e.g. "Black-DROPS with GP-MI" (empty: the variant's name)
+  int rank = kUnranked;  ///< order in reports, >= 0: lower first, equal ranks by name
+  /// Figure colour "#rrggbb" (empty: one that the figure's other variants leave free).
+  std::string colour;
+  /// Returns true when rank >= 0 and colour is empty or "#" and 6 hex digits; otherwise false and
+  /// the reason in *why.
+  bool IsValid(std::string* why) const;
+};
+
+/// A model variant of Black-DROPS (paper Algorithm 1): what `model.type: NAME` selects. The
+/// built-in ones (gp, gp_prior, gp_mi, mi) are registered by register_builtin_algorithms; a model
+/// of one's own is registered the same way (Registry::add_model_variant) and then selected by
+/// its name, reported under its style.
+struct ModelVariant {
+  std::string name;         ///< the value of model.type, [a-z0-9_]+
+  std::string description;  ///< one line for the help of model.type, e.g. "Black-DROPS with MI"
+  VariantStyle style;       ///< how reports show its runs
+  /// Whether the model uses the task's simulator prior: the task must then have one, episode 1
+  /// plans on the prior alone (model::make_prior_only_model) and run names carry the prior's
+  /// label; a variant without it never sees the prior (its factory gets null).
+  bool uses_prior = true;
+  /// Builds the model once per run (BlackDropsOptions::model_factory) from the model.* options,
+  /// the task, the prior and its starting parameters. Called from the thread that runs the
+  /// algorithm.
+  algo::ModelFactory factory;
+};
 
 /// Everything an experiment needs about its task, built by TaskPlugin::make.
 struct TaskSetup {
@@ -163,6 +196,12 @@ class AlgorithmPlugin {
   virtual std::vector<KeySpec> keys() const { return {}; }
   /// The run's variant label (report groups, run names), e.g. the model type for Black-DROPS.
   virtual std::string variant(const Settings& settings) const { (void)settings; return name(); }
+  /// How reports show the runs of these settings (default: labelled by the variant's name,
+  /// unranked, a free colour).
+  virtual VariantStyle variant_style(const Settings& settings) const {
+    (void)settings;
+    return {};
+  }
   /// Whether runs use the task's simulator prior (run names then carry the prior's label).
   virtual bool uses_prior(const Settings& settings) const = 0;
   /// Whether runs learn or use a model of the system (false for a search on the real system
@@ -177,8 +216,8 @@ class AlgorithmPlugin {
                                                 const TaskSetup& setup) const = 0;
 };
 
-/// The tasks and algorithms an application offers. Not thread-safe while registering; const
-/// members are thread-safe.
+/// The tasks, algorithms and model variants an application offers. Not thread-safe while
+/// registering; const members are thread-safe.
 class Registry {
  public:
   Registry() = default;
@@ -191,8 +230,17 @@ class Registry {
   /// scripts/install-deps, then scripts/build"), so that `task=NAME` gets that reason.
   void add_unavailable_task(const std::string& name, const std::string& reason);
   /// Adds an algorithm; the first one added is the default. Throws InvalidArgument when its name
-  /// is taken or one of its keys exists already.
+  /// is taken (by an algorithm or a model variant) or one of its keys exists already.
   void add_algorithm(std::unique_ptr<AlgorithmPlugin> algorithm);
+  /// Adds a model variant of Black-DROPS (selected by model.type; its name joins the allowed
+  /// values of model.type in the schema). Throws InvalidArgument when its name is not
+  /// [a-z0-9_]+ or is taken by a model variant or an algorithm, when its factory is empty or its
+  /// style invalid (VariantStyle::IsValid).
+  void add_model_variant(ModelVariant variant);
+  /// The model variant called `name`. Throws ConfigError ("config key 'model.type' = ...")
+  /// listing the registered ones.
+  const ModelVariant& model_variant(const std::string& name) const;
+  std::vector<std::string> model_variant_names() const;  ///< in registration order
   /// The task called `name`. Throws ConfigError ("config key 'task' = ...") listing the available
   /// tasks, or giving the reason recorded by add_unavailable_task.
   const TaskPlugin& task(const std::string& name) const;
@@ -212,12 +260,15 @@ class Registry {
   std::vector<std::vector<KeySpec>> task_keys_;
   std::map<std::string, std::string> unavailable_;
   std::vector<std::unique_ptr<AlgorithmPlugin>> algorithms_;
+  std::vector<ModelVariant> model_variants_;
 };
 
 /// Registers the algorithms of drops::core: "black_drops" (Black-DROPS and its variants, by
-/// model.type; the default), "direct" (the direct search on the real system), "ite" (IT&E:
-/// MAP-Elites on the prior, M-BOA on the real system; tasks with a behaviour descriptor), "pilco"
-/// and "pilco_prior" (PILCO and PILCO with priors, on tasks with TaskSetup::pilco; keys pilco.*).
+/// model.type; the default; with the four model variants of the paper, gp_mi, gp_prior, mi and
+/// gp, declared in one table with their labels, report order and colours), "direct" (the direct
+/// search on the real system), "ite" (IT&E: MAP-Elites on the prior, M-BOA on the real system;
+/// tasks with a behaviour descriptor), "pilco" and "pilco_prior" (PILCO and PILCO with priors, on
+/// tasks with TaskSetup::pilco; keys pilco.*).
 void register_builtin_algorithms(Registry& registry);
 
 }  // namespace drops::experiment

@@ -60,6 +60,7 @@ struct EpisodeStats {
 struct GroupReport {
   std::string variant;                 ///< see RunResult::variant
   std::string model_type;              ///< the runs' RunResult::model_type
+  VariantStyle variant_style;          ///< of the group's first run (legend, order, colour)
   std::string task;                    ///< task of the group's first run
   std::string prior;                   ///< the panel label (ReportInfo::panel.label)
   ReportInfo report;                   ///< of the group's first run
@@ -117,10 +118,9 @@ struct CampaignReport {
   std::vector<GroupReport> groups;  ///< by panel (rank, label), then variant
 };
 
-/// The long name of a variant for legends, e.g. "gp_mi" -> "Black-DROPS with GP-MI" (the variant
-/// itself when not known), and its rank in legends (Black-DROPS variants first). Thread-safe.
-std::string variant_long_name(const std::string& model_type);
-int variant_rank(const std::string& model_type);
+/// The legend name of a variant: style.label, or the variant's name (model_type) when the style
+/// has none. Thread-safe.
+std::string variant_long_name(const VariantStyle& style, const std::string& model_type);
 
 /// Groups runs by (variant, panel) and computes every statistic of GroupReport. Runs that are not
 /// started count as `not_started` in their group when their config.yaml names one; unreadable
@@ -139,7 +139,8 @@ CampaignReport aggregate_campaign(const Registry& registry,
 /// an undefined value "nan". Throws drops::Error when the file cannot be written.
 void write_summary_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes returns.csv, long format: variant,prior,episode,interaction_time_s,runs,median,q25,q75,
-/// variant_label,panel_title, rows in report order (panels, then variants).
+/// variant_label,panel_title,variant_colour, rows in report order (panels, then variants by
+/// their VariantStyle::rank, then name).
 void write_returns_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes the task's report metric (e.g. speed.csv) in the format of returns.csv, for the groups
 /// with has_metric(). Returns false (and writes nothing) when no group has it.
@@ -169,8 +170,9 @@ std::vector<std::string> plotted_phi_names(const RunResult& run);
 /// episode the returns, phi and metrics, and the real and predicted trajectories of `episodes`
 /// (read with read_trajectory_csv); the label and unit of each phi component ("phi_labels") and
 /// trajectory column ("columns", with its kind: time, state, action, reward or extra) as the
-/// task declared them (ReportInfo), else its name without a unit. Throws drops::Error naming a
-/// missing trajectory file.
+/// task declared them (ReportInfo), else its name without a unit; the variant's legend name and
+/// colour ("variant_label", "variant_colour": RunResult::variant_style). Throws drops::Error
+/// naming a missing trajectory file.
 void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
                      const std::filesystem::path& path);
 

@@ -246,6 +246,10 @@ struct RunResult {
   /// The algorithm's variant (model.type for Black-DROPS, the algorithm's name otherwise); empty
   /// when unknown.
   std::string model_type;
+  /// How reports show model_type (summary.json "variant_style", recorded when the run started;
+  /// for a run that recorded none, the registry's AlgorithmPlugin::variant_style of config.yaml,
+  /// else the name alone, unranked).
+  VariantStyle variant_style;
   bool uses_prior = true;  ///< whether the variant uses the task's simulator prior
   bool uses_model = true;  ///< whether it uses a model (AlgorithmPlugin::uses_model)
   std::string prior;       ///< the starting prior's label (summary.json "prior")

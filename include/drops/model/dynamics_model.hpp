@@ -19,10 +19,10 @@
 
 namespace drops::model {
 
-/// Model variant, chosen in the config as model.type.
+/// The built-in model variants that make_model builds (the experiment layer registers them as the
+/// model.type values gp, gp_prior, gp_mi and mi, beside any model of one's own).
 enum class ModelType { kGp, kGpPrior, kGpMi, kMi };
-/// "gp" | "gp_prior" | "gp_mi" | "mi"; throws InvalidArgument listing the allowed names.
-ModelType parse_model_type(const std::string& name);
+/// "gp" | "gp_prior" | "gp_mi" | "mi". Thread-safe.
 std::string to_string(ModelType type);
 /// True for the variants that use a simulator prior (all but gp).
 inline bool uses_prior(ModelType t) { return t != ModelType::kGp; }
@@ -38,6 +38,9 @@ struct MiOptions {
 
 /// Options of every model variant.
 struct ModelOptions {
+  /// The built-in variant make_model builds. The experiment layer selects a model by its
+  /// registered factory instead (BlackDropsOptions::model_factory, of model.type) and leaves this
+  /// at its default.
   ModelType type = ModelType::kGpMi;
   gp::RpropOptions rprop;  ///< final kernel fit of each output GP (warm-started across episodes)
   GpMiOptions gp_mi;
@@ -75,7 +78,6 @@ struct ModelState {
 class DynamicsModel {
  public:
   virtual ~DynamicsModel() = default;
-  virtual ModelType type() const = 0;
   /// Learns from every transition recorded so far (x raw state dim E, u dim U, dx dim E),
   /// warm-starting from the previous call. Throws InvalidArgument on inconsistent sizes.
   virtual ModelSummary learn(const std::vector<Transition>& data,

@@ -22,7 +22,8 @@ class GpDynamicsModel final : public DynamicsModel {
   GpDynamicsModel(const ModelOptions& options, std::shared_ptr<const Task> task,
                   std::shared_ptr<const MeanFunction> prior, const PriorParameters& parameters);
 
-  ModelType type() const override { return options_.type; }
+  /// The built-in variant this model is (options.type).
+  ModelType type() const { return options_.type; }
   VectorXd phi() const override { return phi_; }
   ModelState state() const override;
   void restore(const ModelState& state) override;

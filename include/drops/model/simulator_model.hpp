@@ -18,7 +18,8 @@ class SimulatorModel final : public DynamicsModel {
   /// Throws InvalidArgument when prior is null, parameters are invalid or options.mi is invalid.
   SimulatorModel(const ModelOptions& options, std::shared_ptr<const MeanFunction> prior,
                  const PriorParameters& parameters, bool identify);
-  ModelType type() const override { return options_.type; }
+  /// The built-in variant this model is (options.type).
+  ModelType type() const { return options_.type; }
   VectorXd phi() const override { return phi_; }
   ModelState state() const override { return ModelState{phi_, {}}; }
   void restore(const ModelState& state) override;

@@ -61,7 +61,7 @@ Eigen::VectorXd prior_steps(const experiment::Experiment& e, int n,
 
 TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   const auto e = make("task: hexapod\n");
-  const auto a = experiment::black_drops_options(e.settings);
+  const auto a = experiment::black_drops_options(registry(), e.settings);
   const auto& p = e.setup.prior_parameters;
   EXPECT_EQ(e.task, "hexapod");
   EXPECT_EQ(p.names, (std::vector<std::string>{"removed_leg"}));
@@ -87,6 +87,7 @@ TEST(HexapodPlugin, BuildsTheSevenPriorFamilyAndTaskDefaults) {
   EXPECT_DOUBLE_EQ(a.model.rprop.max_length_scale_ratio, 3.0);  // measured by the walls study
   // Explicit values win over the derived ones.
   const auto x = experiment::black_drops_options(
+      registry(),
       make("task: hexapod\n", {"policy.bound=0.25", "optimizer.max_evaluations=300"}).settings);
   EXPECT_DOUBLE_EQ(x.search.theta_bound, 0.25);
   EXPECT_EQ(x.search.cmaes.max_evaluations, 300);
