@@ -2,6 +2,7 @@
 // from the tasks' sections (the registry); task-dependent defaults.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <sstream>
 
 #include "drops/core/errors.hpp"
@@ -368,4 +369,20 @@ TEST(Config, TheAlgorithmChoosesTheVariantAndItsKeys) {
   EXPECT_EQ(fixtures::experiment().default_run_name(""), "pendubot-gp_mi-tunable-useful-seed1");
   const std::string m = error_of("", {"algorithm=direct", "direct.start=/nonexistent/policy.csv"});
   EXPECT_NE(m.find("direct.start"), std::string::npos) << m;
+}
+
+// The algorithm key offers the registered algorithms, and each one is described in the schema's
+// Markdown (the same list as the registry; none is written out in the key's help).
+TEST(Config, TheAlgorithmKeyListsTheRegisteredAlgorithmsEachWithItsSection) {
+  const auto keys = experiment::schema(registry(), "pendubot");
+  const auto it = std::find_if(keys.begin(), keys.end(),
+                               [](const experiment::KeySpec& k) { return k.key == "algorithm"; });
+  ASSERT_NE(it, keys.end());
+  EXPECT_EQ(it->allowed, registry().algorithm_names());
+  EXPECT_EQ(it->allowed.front(), "black_drops");
+  const std::string md = experiment::schema_markdown(registry());
+  for (const auto& a : registry().algorithm_names()) {
+    const auto at = md.find("## Algorithm `" + a + "`\n\n" + registry().algorithm(a).description());
+    EXPECT_NE(at, std::string::npos) << a;
+  }
 }

@@ -61,11 +61,11 @@ std::vector<KeySpec> build_base_keys() {
   add({"task", "string", "", 0, 0, {}, "-",
        "the learning problem, one of the registered tasks (empty = the first registered: the "
        "first task of the drops command line); `drops config --markdown` lists each task's keys"});
+  // Allowed values: the registry's algorithms (registered_base_keys).
   add({"algorithm", "string", "", 0, 0, {}, "-",
-       "the learning algorithm: black_drops (Algorithm 1 with the model of model.type; the "
-       "default), direct (CMA-ES on the real system itself, no model), ite (IT&E: a MAP-Elites "
-       "archive on the prior, then Bayesian optimization over it on the real system), pilco or "
-       "pilco_prior (PILCO and PILCO with priors, keys pilco.*); empty = black_drops"});
+       "the learning algorithm, one of the registered algorithms (each described in its own "
+       "section; empty = the first registered: black_drops, Algorithm 1 with the model of "
+       "model.type, for the drops command line)"});
   add({"seed", "int", num(static_cast<double>(d.seed)), 0, 4294967295.0, {}, "-",
        "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
   add({"episodes", "int", num(d.episodes), 1, 1000, {}, "-",
@@ -382,11 +382,12 @@ bool known_anywhere(const Registry& registry, const std::string& key) {
   return registry.task_of_key(key) != nullptr;
 }
 
-/// base_keys() with the values and help of model.type that `registry` offers (its model
-/// variants, in registration order).
+/// base_keys() with the values of algorithm and model.type that `registry` offers (its algorithms
+/// and model variants, in registration order) and model.type's help.
 std::vector<KeySpec> registered_base_keys(const Registry& registry) {
   std::vector<KeySpec> keys = base_keys();
   for (auto& k : keys) {
+    if (k.key == "algorithm") k.allowed = registry.algorithm_names();
     if (k.key != "model.type") continue;
     k.allowed = registry.model_variant_names();
     std::string doc;
@@ -596,8 +597,9 @@ std::string schema_markdown(const Registry& registry) {
   markdown_table(o, registered_base_keys(registry));
   for (const auto& a : registry.algorithm_names()) {
     const auto keys = registry.algorithm(a).keys();
+    o << "\n## Algorithm `" << a << "`\n\n" << registry.algorithm(a).description() << "\n";
     if (keys.empty()) continue;
-    o << "\n## Algorithm `" << a << "`\n\n" << registry.algorithm(a).description() << "\n\n";
+    o << "\n";
     markdown_table(o, keys);
   }
   for (const auto& t : registry.task_names()) {
