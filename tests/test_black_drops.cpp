@@ -534,7 +534,7 @@ TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
 
   auto saved = state_after(ov, 4);
   ASSERT_EQ(saved.episodes_done, 4);
-  ASSERT_EQ(saved.extra.count("trust_region_radius"), 1u);
+  ASSERT_TRUE(algo::BlackDropsOwnState::load(saved.extra).trust_region_radius.has_value());
   const auto resumed = resumed_from(ov, saved);
   ASSERT_EQ(resumed.size(), 3u);
   for (std::size_t k = 0; k < resumed.size(); ++k) {
@@ -543,6 +543,8 @@ TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
               r[k + 4].details.numbers.at("trust_region_radius"));
   }
   // A radius outside (0, 1] in a checkpoint is an error, not a silent reset.
-  saved.extra["trust_region_radius"] = VectorXd::Constant(1, 2.0);
+  saved.extra = algo::BlackDropsOwnState{2.0}.save();
+  EXPECT_THROW(resumed_from(ov, saved), InvalidArgument);
+  saved.extra.clear();  // the trust region is on: its radius must be there
   EXPECT_THROW(resumed_from(ov, saved), InvalidArgument);
 }

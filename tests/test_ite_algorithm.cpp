@@ -195,7 +195,7 @@ TEST(IteAlgorithm, AResumedRunGivesTheTrialsOfAnUninterruptedOne) {
   ASSERT_EQ(first.records.size(), 2u);
   const algo::RunState state = first.states.back();
   EXPECT_EQ(state.episodes_done, 2);
-  EXPECT_EQ(state.extra.at(algo::kIteTrialCells).size(), 2);
+  EXPECT_EQ(algo::IteTrials::load(state.extra).cells.size(), 2u);
   const Outcome rest = run(e, 1, &state);
   expect_same_episodes(whole.records, rest.records, 2);
   EXPECT_EQ(rest.summary.details.numbers.at("trials"), 4.0);
@@ -364,3 +364,30 @@ TEST(IteAlgorithm, ATaskWithoutADescriptorOrABadArchiveIsAConfigErrorNamingIt) {
 }
 
 }  // namespace
+
+// IT&E's own state reads back what it wrote, and refuses entries that are missing, of unequal
+// length or not cell indices (a checkpoint edited by hand), naming the entry.
+TEST(IteAlgorithm, ItsTrialsReadBackExactlyAndMalformedOnesAreRefused) {
+  algo::IteTrials t;
+  t.cells = {0, 41, 7};
+  t.returns = {0.1, -2.5, 1.0 / 3.0};
+  const algo::IteTrials back = algo::IteTrials::load(t.save());
+  EXPECT_EQ(back.cells, t.cells);
+  EXPECT_EQ(back.returns, t.returns);
+  auto refused = [](algo::StateVectors v, const std::string& why) {
+    try {
+      algo::IteTrials::load(v);
+      ADD_FAILURE() << "accepted; expected: " << why;
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  refused({}, "no IT&E trials");
+  algo::StateVectors v = t.save();
+  v.begin()->second.conservativeResize(2);
+  refused(v, "no IT&E trials");
+  v = t.save();
+  for (auto& [k, x] : v)
+    if (k.find("cells") != std::string::npos) x[1] = 2.5;
+  refused(v, "not a cell index");
+}

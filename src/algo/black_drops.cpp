@@ -21,8 +21,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPolicy = 3,
                                  kPredicted = 4 };
 
-// The trust region's radius after the last episode, in RunState::extra (written and read only
-// here, one value in (0, 1]).
+// BlackDropsOwnState's entry of RunState::extra (checkpoint.json "extra").
 constexpr const char* kTrustRegionKey = "trust_region_radius";
 
 // What Algorithm 1 carries from one episode to the next: the content of its checkpoint.
@@ -52,11 +51,11 @@ Progress start_or_resume(const BlackDropsOptions& options, int n, model::Dynamic
   p.first_solved_episode = resume->first_solved_episode;
   p.episodes_done = resume->episodes_done;
   if (options.trust_region.enabled) {
-    const auto it = resume->extra.find(kTrustRegionKey);
-    if (it == resume->extra.end() || it->second.size() != 1)
+    const BlackDropsOwnState own = BlackDropsOwnState::load(resume->extra);
+    if (!own.trust_region_radius)
       throw InvalidArgument(std::string("resume: the state has no '") + kTrustRegionKey +
-                            "' (one value) although the trust region is on");
-    p.region = TrustRegion(options.trust_region, it->second[0]);  // checks (0, 1]
+                            "' although the trust region is on");
+    p.region = TrustRegion(options.trust_region, *own.trust_region_radius);  // checks (0, 1]
   }
   return p;
 }
@@ -69,7 +68,9 @@ BlackDropsState checkpoint(const Progress& p, const model::DynamicsModel& model)
   st.best_return = p.best_return;
   st.first_solved_episode = p.first_solved_episode;
   st.model = model.state();
-  if (p.region.enabled()) st.extra[kTrustRegionKey] = VectorXd::Constant(1, p.region.radius());
+  BlackDropsOwnState own;
+  if (p.region.enabled()) own.trust_region_radius = p.region.radius();
+  st.extra = own.save();
   return st;
 }
 
@@ -206,6 +207,23 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   if (!trust_region.IsValid(&w)) return fail("trust_region: " + w);
   if (!model.IsValid(&w)) return fail("model: " + w);
   return true;
+}
+
+StateVectors BlackDropsOwnState::save() const {
+  StateVectors v;
+  if (trust_region_radius) v[kTrustRegionKey] = VectorXd::Constant(1, *trust_region_radius);
+  return v;
+}
+
+BlackDropsOwnState BlackDropsOwnState::load(const StateVectors& extra) {
+  BlackDropsOwnState own;
+  if (const auto it = extra.find(kTrustRegionKey); it != extra.end()) {
+    if (it->second.size() != 1)
+      throw InvalidArgument(std::string("resume: the state's '") + kTrustRegionKey + "' holds " +
+                            std::to_string(it->second.size()) + " values, expected 1");
+    own.trust_region_radius = it->second[0];
+  }
+  return own;
 }
 
 BlackDrops::BlackDrops(const BlackDropsOptions& options) : options_(options) {

@@ -13,6 +13,36 @@
 #include "drops/rollout/rollout.hpp"
 
 namespace drops::algo {
+
+// IteTrials' entries of RunState::extra (checkpoint.json "extra").
+constexpr const char* kTrialCells = "ite.trial_cells";
+constexpr const char* kTrialReturns = "ite.trial_returns";
+
+StateVectors IteTrials::save() const {
+  VectorXd c(static_cast<Eigen::Index>(cells.size()));
+  for (std::size_t i = 0; i < cells.size(); ++i)
+    c[static_cast<Eigen::Index>(i)] = static_cast<double>(cells[i]);
+  return {{kTrialCells, c},
+          {kTrialReturns,
+           Eigen::Map<const VectorXd>(returns.data(), static_cast<Eigen::Index>(returns.size()))}};
+}
+
+IteTrials IteTrials::load(const StateVectors& extra) {
+  const auto c = extra.find(kTrialCells), r = extra.find(kTrialReturns);
+  if (c == extra.end() || r == extra.end() || c->second.size() != r->second.size())
+    throw InvalidArgument(std::string("resume: the state holds no IT&E trials (extra '") +
+                          kTrialCells + "' and '" + kTrialReturns + "' of equal length)");
+  IteTrials t;
+  for (Eigen::Index i = 0; i < c->second.size(); ++i) {
+    const double x = c->second[i];
+    if (!(x >= 0) || x != std::floor(x))
+      throw InvalidArgument(std::string("resume: the state's '") + kTrialCells + "' holds " +
+                            std::to_string(x) + ", not a cell index");
+    t.cells.push_back(static_cast<std::int64_t>(x));
+    t.returns.push_back(r->second[i]);
+  }
+  return t;
+}
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -109,27 +139,18 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
   ite::Mboa mboa(*scaled_archive(archive, scale), mo);
   RunState state;
   state.archive = {got.archive, true, got.cursor};
-  std::vector<double> trial_cells, trial_returns;
+  IteTrials trials;
   if (resume && resume->episodes_done > 0) {
     // Replay the trials so far: the posterior is a function of them alone.
-    const auto cells = resume->extra.find(kIteTrialCells);
-    const auto returns = resume->extra.find(kIteTrialReturns);
-    if (cells == resume->extra.end() || returns == resume->extra.end() ||
-        cells->second.size() != returns->second.size())
-      throw InvalidArgument("resume: the state holds no IT&E trials (extra '" +
-                            std::string(kIteTrialCells) + "' and '" + kIteTrialReturns + "')");
+    trials = IteTrials::load(resume->extra);
+    const std::size_t n = trials.cells.size();
     if (resume->episodes_done > options_.episodes ||
-        cells->second.size() > resume->episodes_done || cells->second.size() == 0)
+        n > static_cast<std::size_t>(resume->episodes_done) || n == 0)
       throw InvalidArgument("resume: episodes_done = " + std::to_string(resume->episodes_done) +
-                            " with " + std::to_string(cells->second.size()) +
-                            " trials does not fit a run of " + std::to_string(options_.episodes) +
-                            " episodes");
-    for (Eigen::Index i = 0; i < cells->second.size(); ++i) {
-      const ite::Cell cell = archive.cell_from_linear(static_cast<std::int64_t>(cells->second[i]));
-      mboa.observe(cell, observation(returns->second[i]));
-      trial_cells.push_back(cells->second[i]);
-      trial_returns.push_back(returns->second[i]);
-    }
+                            " with " + std::to_string(n) + " trials does not fit a run of " +
+                            std::to_string(options_.episodes) + " episodes");
+    for (std::size_t i = 0; i < n; ++i)
+      mboa.observe(archive.cell_from_linear(trials.cells[i]), observation(trials.returns[i]));
     check_size("resume: best_theta vs policy parameters", problem.policy->param_dim(),
                resume->best_theta.size());
     state.episodes_done = summary.episodes_done = resume->episodes_done;
@@ -176,8 +197,8 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
     rec.interaction_time = episode * task.horizon() * task.dt();
     if (trial) {
       mboa.observe(cell, observation(rec.real_return));
-      trial_cells.push_back(static_cast<double>(archive.linear_index(cell)));
-      trial_returns.push_back(rec.real_return);
+      trials.cells.push_back(archive.linear_index(cell));
+      trials.returns.push_back(rec.real_return);
     }
     rec.details.numbers["stop"] = mboa.should_stop() ? 1.0 : 0.0;
 
@@ -191,10 +212,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
     summary.first_solved_episode = state.first_solved_episode;
     if (callbacks.on_episode) callbacks.on_episode(rec);
     if (callbacks.on_state) {
-      state.extra[kIteTrialCells] = Eigen::Map<const VectorXd>(
-          trial_cells.data(), static_cast<Eigen::Index>(trial_cells.size()));
-      state.extra[kIteTrialReturns] = Eigen::Map<const VectorXd>(
-          trial_returns.data(), static_cast<Eigen::Index>(trial_returns.size()));
+      state.extra = trials.save();
       callbacks.on_state(state);
     }
   }

@@ -112,6 +112,12 @@ struct Calibration {
 /// nullopt without them (no model predicted the episode). Thread-safe.
 std::optional<Calibration> calibration(const EpisodeRecord& rec);
 
+/// Named vectors: the form in which an algorithm's own state travels in a RunState and is stored
+/// (checkpoint.json "extra", doubles exact). Each algorithm writes and reads its own entries
+/// through a typed struct of its own (BlackDropsOwnState, IteTrials, PILCO's in pilco.cpp); no
+/// other code reads them.
+using StateVectors = std::map<std::string, VectorXd>;
+
 /// A MAP-Elites archive that an algorithm built, is building or was given (IT&E), with where its
 /// generation stands. The experiment layer saves it beside the checkpoint (the run directory's
 /// archive.csv), not inside checkpoint.json.
@@ -135,8 +141,8 @@ struct RunState {
   double best_return = -std::numeric_limits<double>::infinity();  ///< its real return
   int first_solved_episode = 0;      ///< 0 when never solved
   model::ModelState model;           ///< the model's warm starts after the last learn()
-  /// Algorithm-specific vectors, by name (values stored exactly: 17 significant digits).
-  std::map<std::string, VectorXd> extra;
+  /// The algorithm's own state, serialised by its own struct (see StateVectors).
+  StateVectors extra;
   /// The algorithm's MAP-Elites archive (IT&E), saved beside the checkpoint; empty otherwise. An
   /// algorithm may hand out a state with episodes_done = 0 and an archive (IT&E during and after
   /// its archive generation), so that a long generation is resumable too.

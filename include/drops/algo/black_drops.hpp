@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,19 @@ struct BlackDropsOptions {
   bool uses_prior() const {
     return model_factory ? model_factory_uses_prior : model::uses_prior(model.type);
   }
+};
+
+/// Black-DROPS's own part of a RunState (in RunState::extra), written and read only by
+/// run_black_drops.
+struct BlackDropsOwnState {
+  /// The trust region's radius after the last episode, in (0, 1] (TrustRegion::radius); empty
+  /// when the trust region is off.
+  std::optional<double> trust_region_radius;
+  /// Its entries of RunState::extra (none when there is nothing to keep).
+  StateVectors save() const;
+  /// Reads it back from RunState::extra (fields without an entry stay empty). Throws
+  /// InvalidArgument naming the entry when it holds other than one value. Thread-safe.
+  static BlackDropsOwnState load(const StateVectors& extra);
 };
 
 /// Black-DROPS's names for the shared types of algorithm.hpp.

@@ -78,10 +78,17 @@ struct IteOptions {
 inline constexpr std::uint64_t kIteArchiveStream = 0x17E0A;      ///< {tag}: MAP-Elites' seed
 inline constexpr std::uint64_t kIteRealEpisodeStream = 0x17E0E;  ///< {episode, tag}
 
-/// The names under which Ite keeps its adaptation in RunState::extra (resume): the linear cell
-/// index of every trial so far and its real return, in order.
-inline constexpr const char* kIteTrialCells = "ite.trial_cells";
-inline constexpr const char* kIteTrialReturns = "ite.trial_returns";
+/// IT&E's adaptation so far, its own part of a RunState (in RunState::extra; the archive travels
+/// in RunState::archive): every trial in order. Written and read only by Ite.
+struct IteTrials {
+  std::vector<std::int64_t> cells;  ///< linear cell index of each trial (Archive::cell_from_linear)
+  std::vector<double> returns;      ///< its real return
+  /// Its entries of RunState::extra.
+  StateVectors save() const;
+  /// Reads it back from RunState::extra. Throws InvalidArgument when an entry is missing, the two
+  /// differ in length or a cell index is not a non-negative integer. Thread-safe.
+  static IteTrials load(const StateVectors& extra);
+};
 
 /// IT&E behind the Algorithm interface:
 ///   1. the archive: the resumed one, the given one (options.archive), or MAP-Elites on the prior
