@@ -630,11 +630,7 @@ def plot_calibration(calibration_csv, output_png):
             variants.append(r["variant"])
         label[r["variant"]] = r.get("variant_label") or r["variant"]
         title[r["prior"]] = r.get("panel_title") or r["prior"]
-    color = {v: VARIANT_COLORS[v] for v in variants if v in VARIANT_COLORS}
-    spare = [c for c in COLORS if c not in color.values()]
-    for v in variants:
-        if v not in color:
-            color[v] = spare.pop(0) if spare else COLORS[len(color) % len(COLORS)]
+    color = variant_colors(rows)
     n = max(1, len(priors))
     ncols = n if n <= 3 else (2 if n == 4 else 3)
     nrows = math.ceil(n / ncols)

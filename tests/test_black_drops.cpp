@@ -404,7 +404,7 @@ TEST(BlackDrops, EpisodesRecordThePredictedReturnsAndWhetherTheyReplayTheBestPol
   algo::BlackDropsCallbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
   algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,
-                        e.setup.prior_parameters, experiment::black_drops_options(e.settings), cb);
+                        e.setup.prior_parameters, experiment::black_drops_options(fixtures::registry(), e.settings), cb);
   ASSERT_EQ(records.size(), 4u);
   VectorXd best;
   double best_return = -1e300;

@@ -402,7 +402,8 @@ bool write_metric_csv(const CampaignReport& report, const fs::path& path) {
 
 bool write_calibration_csv(const CampaignReport& report, const fs::path& path) {
   std::string t =
-      "variant,prior,run,episode,quantile,inside_band,gap,replay,variant_label,panel_title\n";
+      "variant,prior,run,episode,quantile,inside_band,gap,replay,variant_label,panel_title,"
+      "variant_colour\n";
   bool any = false;
   for (const auto& g : report.groups)
     for (const auto& name : g.run_names) {
@@ -412,11 +413,11 @@ bool write_calibration_csv(const CampaignReport& report, const fs::path& path) {
       for (const auto& e : r->episodes) {
         if (!e.has_calibration) continue;
         any = true;
-        t += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
+        t += fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", csv_field(g.variant),
                          csv_field(g.prior), csv_field(name), e.episode,
                          num(e.calibration_quantile), e.inside_band ? 1 : 0, num(e.gap),
                          e.replay ? 1 : 0, csv_field(variant_label(g)),
-                         csv_field(panel_title(g)));
+                         csv_field(panel_title(g)), csv_field(g.variant_style.colour));
       }
     }
   if (any) write_file_atomically(path, t);

@@ -146,7 +146,8 @@ void write_returns_csv(const CampaignReport& report, const std::filesystem::path
 /// with has_metric(). Returns false (and writes nothing) when no group has it.
 bool write_metric_csv(const CampaignReport& report, const std::filesystem::path& path);
 /// Writes calibration.csv, long format, one row per episode a model predicted:
-/// variant,prior,run,episode,quantile,inside_band,gap,replay,variant_label,panel_title (the
+/// variant,prior,run,episode,quantile,inside_band,gap,replay,variant_label,panel_title,
+/// variant_colour (the
 /// columns of algo::Calibration; inside_band and replay 0 or 1). Returns false (and writes
 /// nothing) when no episode has a calibration. Throws drops::Error on write failure.
 bool write_calibration_csv(const CampaignReport& report, const std::filesystem::path& path);
