@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 
 #include <cmath>
@@ -114,6 +115,77 @@ class EulerPendulumPrior final : public model::MeanFunction {
     return std::make_unique<EulerPendulumPrior>(*this);
   }
 };
+
+// EulerPendulumPrior with evaluate_batch overridden: counts the batched calls and their rows (the
+// shape of a Python prior, which takes the interpreter lock once per call).
+class CountingBatchPrior final : public model::MeanFunction {
+ public:
+  int state_dim() const override { return 2; }
+  int action_dim() const override { return 1; }
+  std::vector<std::string> parameter_names() const override { return inner_.parameter_names(); }
+  void check_phi(const VectorXd& phi) const override { inner_.check_phi(phi); }
+  void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
+                Eigen::Ref<VectorXd> dx) const override {
+    ++single_calls;
+    inner_.evaluate(x, u, phi, dx);
+  }
+  void evaluate_batch(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi,
+                      MatrixXd& dX) const override {
+    ++batch_calls;
+    dX.resize(X.rows(), 2);
+    for (Eigen::Index b = 0; b < X.rows(); ++b)
+      dX.row(b) = (euler_pendulum_step(phi, X.row(b).transpose(), U(b, 0)) -
+                   X.row(b).transpose()).transpose();
+  }
+  std::unique_ptr<model::MeanFunction> clone() const override {
+    return std::make_unique<CountingBatchPrior>();
+  }
+  mutable std::atomic<int> batch_calls{0}, single_calls{0};
+
+ private:
+  EulerPendulumPrior inner_;
+};
+
+// The model's batched prediction and GP-MI's residuals (prior_outputs) go through the prior's
+// evaluate_batch, one call per batch (per block of 64 recorded transitions), never through
+// evaluate() row by row; the default evaluate_batch gives the same numbers as evaluate().
+TEST(MeanFunction, PredictionsAndResidualsCallEvaluateBatchOncePerBatch) {
+  const Eigen::Vector3d phi(1.0, 0.6, 0.05);
+  std::vector<Transition> data;
+  Rng rng(3);
+  VectorXd x(2);
+  x << 0.0, 3.0;
+  for (int t = 0; t < 100; ++t) {
+    const VectorXd u = VectorXd::Constant(1, rng.uniform(-1.0, 1.0));
+    const VectorXd next = euler_pendulum_step(phi, x, u[0]);
+    data.push_back({x, u, next - x});
+    x = next;
+  }
+  const auto d = model::make_dataset(data, nullptr, 2, 1);
+  auto counting = std::make_shared<CountingBatchPrior>();
+  const EulerPendulumPrior plain;
+  long bad = 0;
+  const MatrixXd batched = model::prior_outputs(*counting, d.x, d.u, phi, &bad);
+  EXPECT_EQ(counting->batch_calls.load(), 2);  // 100 rows: blocks of 64 and 36
+  MatrixXd by_rows;
+  plain.evaluate_batch(d.x, d.u, phi, by_rows);  // the default: evaluate() row by row
+  EXPECT_EQ((batched - by_rows).cwiseAbs().maxCoeff(), 0.0);
+
+  model::PriorParameters p;
+  p.names = {"m", "l", "b"};
+  p.values = phi;
+  p.choices.assign(0, {});
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpPrior;
+  o.rprop.max_iterations = 20;
+  auto m = model::make_model(o, std::make_shared<drops::testing::PendulumTask>(), counting, p);
+  m->learn(data);
+  const int before = counting->batch_calls.load();
+  MatrixXd mean, var;
+  m->predict_batch(d.x.topRows(8), d.u.topRows(8), mean, var);
+  EXPECT_EQ(counting->batch_calls.load(), before + 1);
+  EXPECT_EQ(counting->single_calls.load(), 0);
+}
 
 // GP-MI's default score identifies every parameter of a prior whose parameters trade off and one
 // of whose outputs every phi predicts alike (issue 43): the pendulum above with m = 1 kg,

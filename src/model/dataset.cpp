@@ -28,7 +28,6 @@ Dataset make_dataset(const std::vector<Transition>& data, const Task* task, int 
   d.dx.resize(N, E);
   const int O = task ? task->observation_dim() : 0;
   d.gp_in.resize(N, task ? O + U : 0);
-  VectorXd obs(O);
   for (int n = 0; n < N; ++n) {
     const Transition& t = data[static_cast<std::size_t>(n)];
     check_size("transition x", E, t.x.size());
@@ -39,11 +38,12 @@ Dataset make_dataset(const std::vector<Transition>& data, const Task* task, int 
     d.x.row(n) = t.x.transpose();
     d.u.row(n) = t.u.transpose();
     d.dx.row(n) = t.dx.transpose();
-    if (task) {
-      task->observe(t.x, obs);
-      d.gp_in.row(n).head(O) = obs.transpose();
-      d.gp_in.row(n).tail(U) = t.u.transpose();
-    }
+  }
+  if (task) {
+    MatrixXd obs;
+    task->observe_batch(d.x, obs);  // one call for every transition
+    d.gp_in.leftCols(O) = obs;
+    d.gp_in.rightCols(U) = d.u;
   }
   return d;
 }
@@ -67,15 +67,13 @@ MatrixXd prior_outputs(const MeanFunction& prior, const MatrixXd& X, const Matri
   const int chunks = (N + kChunk - 1) / kChunk;
   std::vector<long> bad(static_cast<std::size_t>(chunks), 0);
   parallel_for(static_cast<std::size_t>(chunks), [&](std::size_t c) {
-    VectorXd x(X.cols()), u(U.cols()), dx(E);
-    const int end = std::min(N, static_cast<int>(c + 1) * kChunk);
-    for (int n = static_cast<int>(c) * kChunk; n < end; ++n) {
-      x = X.row(n).transpose();
-      u = U.row(n).transpose();
-      prior.evaluate(x, u, phi, dx);
-      if (!dx.allFinite()) ++bad[c];
-      out.row(n) = dx.transpose();
-    }
+    const int begin = static_cast<int>(c) * kChunk;
+    const int rows = std::min(N, begin + kChunk) - begin;
+    MatrixXd dX;
+    prior.evaluate_batch(X.middleRows(begin, rows), U.middleRows(begin, rows), phi, dX);
+    for (int k = 0; k < rows; ++k)
+      if (!dX.row(k).allFinite()) ++bad[c];
+    out.middleRows(begin, rows) = dX;
   });
   long total = 0;
   for (long b : bad) total += b;

@@ -115,28 +115,18 @@ void GpDynamicsModel::predict_batch(const MatrixXd& X, const MatrixXd& U, Matrix
   const Eigen::Index B = X.rows();
   // Called at every step of every rollout: per-thread buffers, resized (not reallocated) when
   // the batch shape repeats.
-  thread_local MatrixXd in;
-  thread_local VectorXd x, u, obs, dx, m, v;
+  // One call each to the task's observation and the prior for the whole batch.
+  thread_local MatrixXd in, obs;
+  thread_local VectorXd m, v;
   in.resize(B, O_ + U_);
-  x.resize(E_);
-  u.resize(U_);
-  obs.resize(O_);
-  dx.resize(E_);
-  mean.resize(B, E_);
+  task_->observe_batch(X, obs);
+  in.leftCols(O_) = obs;
+  in.rightCols(U_) = U;
+  if (prior_)
+    prior_->evaluate_batch(X, U, phi_, mean);
+  else
+    mean.setZero(B, E_);
   var.resize(B, E_);
-  for (Eigen::Index b = 0; b < B; ++b) {
-    x = X.row(b).transpose();
-    u = U.row(b).transpose();
-    task_->observe(x, obs);
-    in.row(b).head(O_) = obs.transpose();
-    in.row(b).tail(U_) = u.transpose();
-    if (prior_) {
-      prior_->evaluate(x, u, phi_, dx);
-      mean.row(b) = dx.transpose();
-    } else {
-      mean.row(b).setZero();
-    }
-  }
   for (int i = 0; i < E_; ++i) {
     gps_[static_cast<std::size_t>(i)].predict_batch(in, m, v);
     mean.col(i) += m;

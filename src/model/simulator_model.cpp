@@ -79,16 +79,8 @@ void SimulatorModel::predict(const VectorXd& x, const VectorXd& u, Prediction& o
 
 void SimulatorModel::predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
                                    MatrixXd& var) const {
-  const int E = prior_->state_dim();
-  mean.resize(X.rows(), E);
-  var = MatrixXd::Zero(X.rows(), E);
-  VectorXd x(X.cols()), u(U.cols()), dx(E);
-  for (Eigen::Index b = 0; b < X.rows(); ++b) {
-    x = X.row(b).transpose();
-    u = U.row(b).transpose();
-    prior_->evaluate(x, u, phi_, dx);
-    mean.row(b) = dx.transpose();
-  }
+  prior_->evaluate_batch(X, U, phi_, mean);
+  var = MatrixXd::Zero(X.rows(), prior_->state_dim());
 }
 
 }  // namespace drops::model

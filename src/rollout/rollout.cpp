@@ -106,7 +106,8 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       pols.push_back(std::move(p));
       rngs.emplace_back(derive_seed(seeds[k], {r}));
     }
-    MatrixXd X(n, E), Uc, mean, var, Xa;
+    MatrixXd X(n, E), Uc, mean, var, Xa, Obs, Xn;
+    VectorXd rewards;
     const VectorXd x0 = task.initial_state();
     for (Eigen::Index b = 0; b < n; ++b) X.row(b) = x0.transpose();
     // The running lanes, in lane order; while every lane runs, the batch is X itself.
@@ -123,15 +124,18 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       }
       const MatrixXd& Xb = all ? X : Xa;
       Uc.resize(m, U);
+      task.observe_batch(Xb, Obs);  // one call per batch and step (a Python task: one lock)
       for (Eigen::Index j = 0; j < m; ++j) {
-        x = Xb.row(j).transpose();
-        task.observe(x, obs);
+        obs = Obs.row(j).transpose();
         pols[static_cast<std::size_t>(running[static_cast<std::size_t>(j)])]->act(obs, t * dt, u);
         Uc.row(j) = u.transpose();
       }
       model.predict_batch(Xb, Uc, mean, var);
-      std::vector<Eigen::Index> still;
-      still.reserve(running.size());
+      // The next states of the lanes (in order, so each lane's draws are its own), then the
+      // rewards of the finite ones in one call.
+      std::vector<Eigen::Index> finite;
+      finite.reserve(running.size());
+      Xn.resize(m, E);
       for (Eigen::Index j = 0; j < m; ++j) {
         const Eigen::Index b = running[static_cast<std::size_t>(j)];
         Rng& rng = rngs[static_cast<std::size_t>(b)];
@@ -145,7 +149,17 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
           continue;  // stopped: remaining rewards 0
         }
         X.row(b) = x.transpose();
-        const double r = task.reward(x);
+        Xn.row(static_cast<Eigen::Index>(finite.size())) = x.transpose();
+        finite.push_back(b);
+      }
+      Xn.conservativeResize(static_cast<Eigen::Index>(finite.size()), E);
+      if (!finite.empty()) task.reward_batch(Xn, rewards);
+      std::vector<Eigen::Index> still;
+      still.reserve(running.size());
+      for (std::size_t j = 0; j < finite.size(); ++j) {
+        const Eigen::Index b = finite[j];
+        x = X.row(b).transpose();
+        const double r = rewards[static_cast<Eigen::Index>(j)];
         double& total = lane_return[begin + static_cast<std::size_t>(b)];
         total += r;
         if (task.absorbing(x)) {

@@ -46,6 +46,28 @@ class Task {
   virtual void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const = 0;
   /// Immediate reward of reaching state x (dim E).
   virtual double reward(const VectorXd& x) const = 0;
+  /// observe() for every row of X (B x E): obs is resized to B x O. Called once per step of a
+  /// batch of rollouts, so a task that is costly to enter (a Python task: one interpreter lock
+  /// per call) overrides it. Default: observe() row by row. Thread-safe, as observe().
+  virtual void observe_batch(const MatrixXd& X, MatrixXd& obs) const {
+    obs.resize(X.rows(), observation_dim());
+    VectorXd x(X.cols()), o(observation_dim());
+    for (Eigen::Index b = 0; b < X.rows(); ++b) {
+      x = X.row(b).transpose();
+      observe(x, o);
+      obs.row(b) = o.transpose();
+    }
+  }
+  /// reward() for every row of X (B x E): r is resized to B. Default: reward() row by row.
+  /// Thread-safe, as reward().
+  virtual void reward_batch(const MatrixXd& X, VectorXd& r) const {
+    r.resize(X.rows());
+    VectorXd x(X.cols());
+    for (Eigen::Index b = 0; b < X.rows(); ++b) {
+      x = X.row(b).transpose();
+      r[b] = reward(x);
+    }
+  }
   /// Whether an episode solved the task (task-specific criterion).
   virtual bool solved(const Trajectory& trajectory) const = 0;
   /// Whether x (dim E) is absorbing: a state the system does not leave and whose reward every

@@ -29,6 +29,24 @@ class MeanFunction {
   /// May return non-finite values for invalid states; callers count and handle them.
   virtual void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
                         Eigen::Ref<VectorXd> dx) const = 0;
+  /// dX.row(b) = M(X.row(b), U.row(b); phi) for every row b: X is B x E (raw states), U is B x U,
+  /// phi dim P (assumed checked); dX is resized to B x E. One call serves a batch of rollouts at
+  /// one step (the model's predict_batch) or a block of recorded transitions (prior_outputs), so
+  /// a simulator that is costly to enter (a Python prior: one interpreter lock per call) or that
+  /// vectorises overrides it. Default: evaluate() row by row (the same numbers). May return
+  /// non-finite rows, as evaluate(). Thread-safe for concurrent calls, as evaluate().
+  virtual void evaluate_batch(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi,
+                              MatrixXd& dX) const {
+    const int E = state_dim();
+    dX.resize(X.rows(), E);
+    VectorXd x(X.cols()), u(U.cols()), dx(E);
+    for (Eigen::Index b = 0; b < X.rows(); ++b) {
+      x = X.row(b).transpose();
+      u = U.row(b).transpose();
+      evaluate(x, u, phi, dx);
+      dX.row(b) = dx.transpose();
+    }
+  }
   /// Independent copy.
   virtual std::unique_ptr<MeanFunction> clone() const = 0;
 };
