@@ -24,11 +24,13 @@ import numpy as _np
 from . import _drops
 from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDirectoryBusy,
                      RunDirectoryDamaged, RunOutcome)
+from .robot import Parameter, Prior, System, Task, _robot_spec
 
 __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
     "read_trajectory", "read_policy", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
-    "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged",
+    "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged", "Task",
+    "System", "Prior", "Parameter",
 ]
 
 
@@ -68,7 +70,7 @@ def _path(p):
 
 
 def run(config=None, overrides=None, *, seed=None, threads=None, output=None, name=None,
-        quiet=False, progress=None):
+        quiet=False, progress=None, task=None, system=None, prior=None):
     """Runs an experiment as ``drops run [config] [key=value ...]`` does; returns a RunOutcome.
 
     config: a YAML configuration file (str or path-like), or None for the defaults (the pendubot,
@@ -94,13 +96,31 @@ def run(config=None, overrides=None, *, seed=None, threads=None, output=None, na
     drops.resume), then raises KeyboardInterrupt.
     The interpreter lock is released while the C++ code runs and taken briefly for each progress
     line and each poll for Ctrl-C. One run at a time per process (drops's thread pool is shared).
+
+    Your own robot (docs/python.md): task (a drops.Task), system (a drops.System) and prior (a
+    drops.Prior, or None for model.type=gp and algorithm=direct) are registered for this run as
+    the only task, under task.name (the configuration's task key is set to it); the other keys
+    (algorithm, model.*, policy.*, optimizer.*, rollouts.*, episodes, ...) work as for the
+    built-in tasks. The callbacks run on drops's threads, each call holding the interpreter lock;
+    the batched ones (Task.observe, Task.reward, Prior.evaluate) take it once per batch. An
+    exception a callback raises stops the run (summary.json says "failed", every finished episode
+    stays on disk; drops.resume with the same objects continues it) and comes out of run() as
+    itself. A callback returning an array of the wrong shape raises InvalidArgument naming the
+    callback, the expected and the received shape; Task.observe or Task.reward returning a
+    non-finite value raises InvalidArgument naming the callback and the state.
     """
     args = _overrides(overrides, {"seed": seed, "threads": threads, "output": output,
                                   "name": name})
-    return _drops._run(_path(config), args, bool(quiet), progress)
+    if task is None:
+        if system is not None or prior is not None:
+            raise TypeError("system= and prior= need task= (your own robot: docs/python.md)")
+        return _drops._run(_path(config), args, bool(quiet), progress)
+    spec = _robot_spec(task, system, prior)
+    return _drops._run_task(spec, task, system, prior, _path(config), args, bool(quiet), progress)
 
 
-def resume(directory, overrides=None, *, threads=None, quiet=False, progress=None):
+def resume(directory, overrides=None, *, threads=None, quiet=False, progress=None, task=None,
+           system=None, prior=None):
     """Continues the run in `directory` from its last finished episode, as
     ``drops run --resume DIR [episodes=N] [threads=N]``; returns a RunOutcome.
 
@@ -113,9 +133,16 @@ def resume(directory, overrides=None, *, threads=None, quiet=False, progress=Non
     Raises ConfigError when another key is overridden; Error when `directory` is not a run
     directory or is of another format version; RunDirectoryDamaged when its files do not match
     its checkpoint; RunDirectoryBusy; KeyboardInterrupt after Ctrl-C, as run().
+    task, system, prior: for a run of your own robot, the same objects (same name, dimensions,
+    parameters and behaviour) as the run was started with; ConfigError when task.name is not the
+    run's task.
     """
     args = _overrides(overrides, {"threads": threads})
-    return _drops._resume(_path(directory), args, bool(quiet), progress)
+    if task is None:
+        return _drops._resume(_path(directory), args, bool(quiet), progress)
+    spec = _robot_spec(task, system, prior)
+    return _drops._resume_task(spec, task, system, prior, _path(directory), args, bool(quiet),
+                               progress)
 
 
 def config(config=None, overrides=None):

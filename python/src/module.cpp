@@ -21,6 +21,7 @@
 #include "drops/experiment/run.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/pendubot/plugin.hpp"
+#include "python_robot.hpp"
 #ifdef DROPS_WITH_HEXAPOD
 #include "drops/hexapod/plugin.hpp"
 #endif
@@ -140,8 +141,10 @@ struct PyRunOutcome {
   double best_real_return = 0, seconds = 0;
 };
 
-PyRunOutcome run_impl(const ex::Settings& settings, const std::string& source,
-                      const std::string& resume_dir, bool quiet, py::object progress) {
+PyRunOutcome run_impl(const ex::Registry& reg, const ex::Settings& settings,
+                      const std::string& source, const std::string& resume_dir, bool quiet,
+                      py::object progress,
+                      drops::python::CallbackErrors* callback_errors = nullptr) {
   PythonOutput py_out;
   py_out.progress = std::move(progress);
   ex::RunOutput out;
@@ -159,9 +162,15 @@ PyRunOutcome run_impl(const ex::Settings& settings, const std::string& source,
   out.clear_status = [&] { py_out.write("\r\033[K", false); };
   out.should_stop = [&] { return py_out.should_stop(); };
   ex::RunOutcome r;
-  {
+  try {
     py::gil_scoped_release release;
-    r = ex::run_experiment(registry(), settings, source, resume_dir, out);
+    r = ex::run_experiment(reg, settings, source, resume_dir, out);
+  } catch (...) {
+    // A Python callback's exception comes out as itself (the run directory says "failed", with
+    // every finished episode kept).
+    if (callback_errors)
+      if (auto e = callback_errors->take()) throw std::move(*e);
+    throw;
   }
   if (py_out.error) throw std::move(*py_out.error);
   if (py_out.interrupt) throw std::move(*py_out.interrupt);
@@ -254,6 +263,20 @@ py::dict run_dict(const ex::RunResult& r) {
   return d;
 }
 
+// A registry of one task written in Python (drops.run(task=...)) and the built-in algorithms.
+// Destroyed with the interpreter lock held, after the run.
+struct PythonTaskRun {
+  std::shared_ptr<drops::python::CallbackErrors> errors =
+      std::make_shared<drops::python::CallbackErrors>();
+  ex::Registry registry;
+  PythonTaskRun(const py::dict& spec, py::object task, py::object system, py::object prior) {
+    ex::register_builtin_algorithms(registry);
+    registry.add_task(drops::python::make_python_task_plugin(spec, std::move(task),
+                                                             std::move(system), std::move(prior),
+                                                             errors));
+  }
+};
+
 }  // namespace
 
 PYBIND11_MODULE(_drops, m) {
@@ -333,7 +356,7 @@ PYBIND11_MODULE(_drops, m) {
       [](const std::string& config, const std::vector<std::string>& overrides, bool quiet,
          py::object progress) {
         const ex::Settings s = settings_of(config, overrides);
-        return run_impl(s, config, "", quiet, std::move(progress));
+        return run_impl(registry(), s, config, "", quiet, std::move(progress));
       },
       py::arg("config"), py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
       "drops.run's C++ side: load the settings (config: a YAML file or ''), run, return a "
@@ -344,11 +367,42 @@ PYBIND11_MODULE(_drops, m) {
          py::object progress) {
         const ex::Settings s = ex::resume_settings(registry(), directory, overrides);
         const std::string source = (std::filesystem::path(directory) / "config.yaml").string();
-        return run_impl(s, source, directory, quiet, std::move(progress));
+        return run_impl(registry(), s, source, directory, quiet, std::move(progress));
       },
       py::arg("directory"), py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
       "drops.resume's C++ side: continue the run in directory (episodes= and threads= overrides "
       "only).");
+  m.def(
+      "_run_task",
+      [](const py::dict& spec, py::object task, py::object system, py::object prior,
+         const std::string& config, std::vector<std::string> overrides, bool quiet,
+         py::object progress) {
+        PythonTaskRun run(spec, std::move(task), std::move(system), std::move(prior));
+        overrides.insert(overrides.begin(), "task=" + spec["name"].cast<std::string>());
+        const ex::Settings s =
+            config.empty() ? ex::load_settings(run.registry, "", overrides)
+                           : ex::load_settings_file(run.registry, config, overrides);
+        return run_impl(run.registry, s, config, "", quiet, std::move(progress),
+                        run.errors.get());
+      },
+      py::arg("spec"), py::arg("task"), py::arg("system"), py::arg("prior"), py::arg("config"),
+      py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
+      "drops.run(task=...)'s C++ side: the robot of drops/robot.py's spec and objects registered "
+      "as the only task, then as _run.");
+  m.def(
+      "_resume_task",
+      [](const py::dict& spec, py::object task, py::object system, py::object prior,
+         const std::string& directory, const std::vector<std::string>& overrides, bool quiet,
+         py::object progress) {
+        PythonTaskRun run(spec, std::move(task), std::move(system), std::move(prior));
+        const ex::Settings s = ex::resume_settings(run.registry, directory, overrides);
+        const std::string source = (std::filesystem::path(directory) / "config.yaml").string();
+        return run_impl(run.registry, s, source, directory, quiet, std::move(progress),
+                        run.errors.get());
+      },
+      py::arg("spec"), py::arg("task"), py::arg("system"), py::arg("prior"), py::arg("directory"),
+      py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
+      "drops.resume(task=...)'s C++ side: as _resume, with the robot registered as for _run_task.");
   m.def(
       "_config",
       [](const std::string& config, const std::vector<std::string>& overrides) {

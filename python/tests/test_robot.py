@@ -1,0 +1,144 @@
+"""Your own robot in Python (examples/python/pendulum.py): GP-MI identifies the example's wrong
+prior and swings it up; a callback's exception comes out as itself and the run resumes; wrong
+shapes and non-finite values are refused naming the callback; the same seed gives the same
+episodes with 1 and 2 threads."""
+
+import csv
+import json
+import sys
+
+import numpy as np
+import pytest
+
+import drops
+from conftest import SOURCE_DIR
+
+sys.path.insert(0, str(SOURCE_DIR / "examples" / "python"))
+import pendulum  # noqa: E402
+
+TIMING = {"model_learning_s", "policy_optimization_s"}
+# A small budget: a few seconds per run.
+SMALL = {"optimizer.max_evaluations": 300, "optimizer.prior_optimizations": 1}
+
+
+def robot():
+    return dict(task=pendulum.SwingUp(), system=pendulum.RealPendulum(),
+                prior=pendulum.PendulumPrior())
+
+
+def rows(directory):
+    with open(directory / "episodes.csv", newline="") as f:
+        return [{k: v for k, v in r.items() if k not in TIMING} for r in csv.DictReader(f)]
+
+
+def test_gp_mi_identifies_the_examples_prior_and_swings_the_pendulum_up(tmp_path):
+    settings = {"model.type": "gp_mi", "episodes": 4, "rollouts.batch": 64,
+                "optimizer.max_evaluations": 1500, "optimizer.prior_optimizations": 1}
+    out = drops.run(overrides=settings, seed=1, output=tmp_path, name="learn", quiet=True,
+                    progress=lambda line: None, **robot())
+    assert out.status == "complete"
+    run = drops.read_run(out.directory)
+    assert run.task == "pendulum" and run.phi_names == ["m", "l"]
+    # Measured with seed 1: solved from episode 3 with a return of 20.2 (of at most 40); the
+    # random first episode gets 0.04.
+    assert run.episodes["solved"][-1], run.episodes["real_return"]
+    assert out.best_real_return > 15
+    np.testing.assert_allclose(run.episodes["phi"][-1], [1.0, 1.0], rtol=0.1)
+    x = run.real(1).x
+    assert x.shape == (41, 2) and run.state_names == ["dtheta", "theta"]
+
+
+class Broken(Exception):
+    pass
+
+
+class FailingSystem(pendulum.RealPendulum):
+    """The real pendulum, raising Broken at the start of its episode number `fail_at`."""
+
+    def __init__(self, fail_at):
+        self.fail_at, self.episodes = fail_at, 0
+
+    def begin_episode(self, x0):
+        self.episodes += 1
+        if self.episodes == self.fail_at:
+            raise Broken("the robot fell off the table")
+        return super().begin_episode(x0)
+
+
+def test_a_callbacks_exception_comes_out_as_itself_and_the_run_resumes(tmp_path):
+    r = robot()
+    r["system"] = FailingSystem(fail_at=3)
+    with pytest.raises(Broken, match="the robot fell off the table"):
+        drops.run(overrides={**SMALL, "episodes": 4}, output=tmp_path, name="f", quiet=True,
+                  progress=lambda line: None, **r)
+    summary = json.loads((tmp_path / "f" / "summary.json").read_text())
+    assert summary["status"] == "failed" and len(summary["episodes"]) == 2
+    assert "System.begin_episode raised Broken: the robot fell off the table" in summary["error"]
+    more = drops.resume(tmp_path / "f", quiet=True, progress=lambda line: None, **robot())
+    assert more.status == "complete" and more.episodes_done == 4
+    # ... with the episodes of a run that never failed.
+    drops.run(overrides={**SMALL, "episodes": 4}, output=tmp_path, name="g", quiet=True,
+              progress=lambda line: None, **robot())
+    assert rows(tmp_path / "f") == rows(tmp_path / "g")
+
+
+class RaisingPrior(pendulum.PendulumPrior):
+    def evaluate(self, x, u, phi):
+        raise KeyError("no such joint")
+
+
+def test_an_exception_in_the_prior_on_drops_threads_comes_out_as_itself(tmp_path):
+    r = robot()
+    r["prior"] = RaisingPrior()
+    with pytest.raises(KeyError, match="no such joint"):
+        drops.run(overrides={**SMALL, "episodes": 2, "model.type": "gp_prior"}, threads=2,
+                  output=tmp_path, name="k", quiet=True, progress=lambda line: None, **r)
+
+
+class ShortPrior(pendulum.PendulumPrior):
+    def evaluate(self, x, u, phi):
+        return super().evaluate(x, u, phi)[:, :1]
+
+
+class ShortObservation(pendulum.SwingUp):
+    def observe(self, x):
+        return x
+
+
+class NanReward(pendulum.SwingUp):
+    def reward(self, x):
+        r = super().reward(x)
+        r[0] = np.nan
+        return r
+
+
+def test_wrong_shapes_and_non_finite_values_are_refused_naming_the_callback(tmp_path):
+    cases = [
+        ("prior", ShortPrior(), r"Prior\.evaluate returned an array of shape \((\d+), 1\), "
+                                r"expected \(\1, 2\) \(B = \1 states x E = 2 state differences\)"),
+        ("task", ShortObservation(), r"ShortObservation\.observe returned an array of shape "
+                                     r"\((\d+), 2\), expected \(\1, 3\)"),
+        ("task", NanReward(), r"NanReward\.reward returned a non-finite value in row 0"),
+    ]
+    for i, (what, obj, message) in enumerate(cases):
+        r = robot()
+        r[what] = obj
+        with pytest.raises(drops.InvalidArgument, match=message):
+            drops.run(overrides={**SMALL, "episodes": 2, "model.type": "gp_prior"},
+                      output=tmp_path, name=f"s{i}", quiet=True, progress=lambda line: None, **r)
+    with pytest.raises(ValueError, match=r"SwingUp.initial_state\(\) returned shape \(3,\)"):
+        task = pendulum.SwingUp()
+        task.initial_state = lambda: np.zeros(3)
+        drops.run(output=tmp_path, task=task, system=pendulum.RealPendulum())
+
+
+def test_the_same_seed_gives_the_same_episodes_with_1_and_2_threads(tmp_path):
+    for threads in (1, 2):
+        drops.run(overrides={**SMALL, "episodes": 3, "model.type": "gp_mi"}, threads=threads,
+                  seed=4, output=tmp_path, name=f"t{threads}", quiet=True,
+                  progress=lambda line: None, **robot())
+    assert rows(tmp_path / "t1") == rows(tmp_path / "t2")
+    for k in (1, 2, 3):
+        for name in ("real.csv", "policy.csv"):
+            a = (tmp_path / "t1" / "episodes" / f"{k:03d}" / name).read_text()
+            assert a == (tmp_path / "t2" / "episodes" / f"{k:03d}" / name).read_text()
