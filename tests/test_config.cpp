@@ -369,6 +369,12 @@ TEST(Config, TheAlgorithmChoosesTheVariantAndItsKeys) {
   EXPECT_EQ(fixtures::experiment().default_run_name(""), "pendubot-gp_mi-tunable-useful-seed1");
   const std::string m = error_of("", {"algorithm=direct", "direct.start=/nonexistent/policy.csv"});
   EXPECT_NE(m.find("direct.start"), std::string::npos) << m;
+  // Its budget is optimizer.max_evaluations: an `episodes` it would ignore (a few episodes asked
+  // for, thousands run) is refused with the key to use; the default is not.
+  const std::string e = error_of("", {"algorithm=direct", "episodes=5"});
+  EXPECT_NE(e.find("config key 'episodes' = '5'"), std::string::npos) << e;
+  EXPECT_NE(e.find("set optimizer.max_evaluations=5 instead"), std::string::npos) << e;
+  EXPECT_EQ(error_of("", {"algorithm=direct", "episodes=10"}), "");
 }
 
 // The algorithm key offers the registered algorithms, and each one is described in the schema's

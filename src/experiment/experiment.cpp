@@ -1,10 +1,12 @@
 #include "drops/experiment/experiment.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/campaign.hpp"
 #include "experiment_plugins.hpp"
 
 namespace drops::experiment {
@@ -163,7 +165,8 @@ class DirectPlugin final : public AlgorithmPlugin {
   std::string description() const override {
     return "BIPOP-CMA-ES on the real system itself, one real episode per evaluation, no model: "
            "a model-free baseline and, with a large budget, the ceiling of the policy family. Its "
-           "budget is optimizer.max_evaluations real episodes; `episodes` is not used";
+           "budget is optimizer.max_evaluations real episodes; `episodes` must stay at its "
+           "default";
   }
   std::vector<KeySpec> keys() const override {
     return {{"direct.start", "string", "", 0, 0, {}, "-",
@@ -177,6 +180,18 @@ class DirectPlugin final : public AlgorithmPlugin {
   bool uses_prior(const Settings&) const override { return false; }
   bool uses_model(const Settings&) const override { return false; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
+    // Its budget is optimizer.max_evaluations real episodes: an `episodes` other than the
+    // default would be ignored, and on a physical robot that is thousands of episodes run
+    // where a few were asked for.
+    const auto& base = base_keys();
+    const auto ep = std::find_if(base.begin(), base.end(),
+                                 [](const KeySpec& k) { return k.key == "episodes"; });
+    if (ep != base.end() && !same_setting_value(s.at("episodes"), ep->default_value))
+      throw ConfigError("config key 'episodes' = '" + s.at("episodes") +
+                        "': algorithm direct runs optimizer.max_evaluations real episodes (" +
+                        s.at("optimizer.max_evaluations") +
+                        " here), not `episodes`; set optimizer.max_evaluations=" +
+                        s.at("episodes") + " instead");
     algo::DirectSearchOptions o;
     o.seed = static_cast<std::uint64_t>(get_int(s, "seed"));
     o.theta_bound = get_double(s, "policy.bound");

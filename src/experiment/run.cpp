@@ -175,9 +175,11 @@ RunOutcome run_experiment(const Registry& registry, const Settings& settings,
     // A direct search reports the episodes that improved on the best (every other is recorded).
     if (quiet || !r.keep_trajectories) return;
     out.line(fmt::format(
-        "episode {:>2}/{}  t={:5.1f} s  return {:6.2f}  predicted {:6.2f}  solved {}  phi [{}]  "
+        "episode {:>2}/{}  t={:5.1f} s  return {:6.2f}  predicted {:>6}  solved {}  phi [{}]  "
         "model {:.1f} s  policy {:.1f} s  {} evals{}",
-        r.episode, episodes, r.interaction_time, r.real_return, r.predicted_return,
+        r.episode, episodes, r.interaction_time, r.real_return,
+        // No model predicted the episode (a random first policy, a direct search).
+        std::isfinite(r.predicted_return) ? fmt::format("{:.2f}", r.predicted_return) : "none",
         r.solved ? "yes" : "no ", phi_brief(r.phi, e.setup.prior_parameters), r.model_seconds,
         r.policy_seconds, r.evaluations,
         r.selected == "start" ? std::string("  (best policy kept)")
