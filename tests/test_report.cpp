@@ -453,7 +453,9 @@ TEST(Report, ModelFreeRunsKeepAPanelNotChosenByThePrior) {
 TEST(Report, RunDirectoryRecordsLabelsUnitsColumnsAndTheModelFreePanel) {
   TempDir tmp;
   for (const std::string algorithm : {"black_drops", "direct"}) {
-    const Experiment e = fixtures::experiment({"algorithm=" + algorithm, "episodes=1"});
+    const Experiment e = fixtures::experiment(
+        {"algorithm=" + algorithm,
+         algorithm == "direct" ? "optimizer.max_evaluations=10" : "episodes=1"});
     const fs::path dir = tmp.path() / algorithm;
     { RunDirectory rd(dir, to_yaml(fixtures::registry(), e.settings), e); }
     const auto s = nlohmann::json::parse(read(dir / "summary.json"));
