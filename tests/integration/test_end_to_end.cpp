@@ -161,8 +161,9 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
         extra += " pilco.centres=20 pilco.policy_evaluations=20 pilco.sim_episodes=2";
       // direct: one real episode per evaluation, optimizer.max_evaluations of them (at least 10);
       // its progress lines show the improving episodes only.
+      // `episodes` goes back to its default there (the direct search refuses another).
       if (algorithm == "direct") {
-        extra += " optimizer.max_evaluations=10";
+        extra += " optimizer.max_evaluations=10 episodes=10";
         episodes = 10;
       }
     } else {
