@@ -56,14 +56,6 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
   return s;
 }
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) throw Error("cannot read " + p.string());
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 std::string host_name() {
   char buf[256] = {0};
   if (gethostname(buf, sizeof buf - 1) != 0) return "?";
@@ -343,7 +335,7 @@ struct Campaign {
 Campaign resolve_campaign(const CampaignOptions& opt) {
   Campaign c;
   c.spec = experiment::load_campaign_file(*opt.registry, opt.file);
-  c.file_text = read_text(opt.file);
+  c.file_text = experiment::read_file_text(opt.file);
   if (opt.output) c.spec.output = *opt.output;
   if (opt.threads) c.spec.threads = *opt.threads;
   if (opt.jobs) c.spec.jobs = *opt.jobs;

@@ -490,16 +490,6 @@ std::string campaign_difference(const Registry& registry, const CampaignSpec& ol
   return "";
 }
 
-namespace {
-std::string read_text_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) throw Error("cannot read " + p.string());
-  std::ostringstream o;
-  o << in.rdbuf();
-  return o.str();
-}
-}  // namespace
-
 void CampaignDirectory::write(const Registry& registry, const std::string& file_text,
                               const std::vector<CampaignRun>& runs) const {
   std::error_code ec;
@@ -510,7 +500,7 @@ void CampaignDirectory::write(const Registry& registry, const std::string& file_
   for (const auto& r : runs) {
     const fs::path p = run_config(r.name);
     const std::string text = to_yaml(registry, r.settings);
-    if (!fs::exists(p, ec) || read_text_file(p) != text) write_file_atomically(p, text);
+    if (!fs::exists(p, ec) || read_file_text(p) != text) write_file_atomically(p, text);
   }
 }
 
@@ -519,7 +509,7 @@ std::optional<CampaignSpec> CampaignDirectory::read_spec(const Registry& registr
                                                          bool validate) const {
   if (!fs::exists(campaign_file())) return std::nullopt;
   try {
-    return parse_campaign(registry, read_text_file(campaign_file()), default_name, validate);
+    return parse_campaign(registry, read_file_text(campaign_file()), default_name, validate);
   } catch (const Error& e) {
     throw ConfigError(campaign_file().string() + " cannot be read (" + e.what() + ")");
   }
@@ -550,7 +540,7 @@ void CampaignDirectory::check_kept_run(const Registry& registry, const CampaignR
   }
   Settings existing;
   try {
-    existing = load_settings(registry, read_text_file(run_dir / "config.yaml"), {});
+    existing = load_settings(registry, read_file_text(run_dir / "config.yaml"), {});
   } catch (const std::exception& e) {
     throw ConfigError(where + ": its config.yaml cannot be compared with this campaign (" +
                       e.what() + "); use a new campaign name (key 'name') or another --output");

@@ -59,14 +59,6 @@ nlohmann::json details_json(const algo::Details& d) {
   return j;
 }
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot read " + path.string());
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 double number_or_nan(const nlohmann::json& j, const char* key) {
   const auto it = j.find(key);
   return it != j.end() && it->is_number() ? it->get<double>() : kNaN;
@@ -214,6 +206,14 @@ ReportInfo report_from_json(const nlohmann::json& j, const ReportInfo& known) {
 }
 
 }  // namespace
+
+std::string read_file_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot read " + path.string());
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
 
 void write_file_atomically(const fs::path& path, const std::string& text) {
   const fs::path tmp = path.string() + ".tmp";
@@ -574,7 +574,7 @@ nlohmann::json read_checkpoint_json(const fs::path& dir) {
   if (!fs::exists(cp)) throw Error("run " + dir.string() + " has no checkpoint.json");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(read_text(cp));
+    j = nlohmann::json::parse(read_file_text(cp));
   } catch (const nlohmann::json::exception& e) {
     throw RunDirectoryDamaged(cp.string() + " cannot be parsed (" + e.what() +
                               "): the file is damaged (drops replaces it atomically, so a crash "
@@ -687,11 +687,11 @@ int recorded_episodes(const fs::path& dir) {
   int n = 0;
   if (fs::exists(dir / "episodes.csv")) {
     std::size_t end = 0;
-    n = std::max(complete_lines(read_text(dir / "episodes.csv"), INT_MAX, &end) - 1, 0);
+    n = std::max(complete_lines(read_file_text(dir / "episodes.csv"), INT_MAX, &end) - 1, 0);
   }
   if (fs::exists(dir / "summary.json")) {
     try {
-      const auto j = nlohmann::json::parse(read_text(dir / "summary.json"));
+      const auto j = nlohmann::json::parse(read_file_text(dir / "summary.json"));
       if (j.is_object() && j.contains("episodes") && j["episodes"].is_array())
         n = std::max(n, static_cast<int>(j["episodes"].size()));
     } catch (const nlohmann::json::exception&) {
@@ -714,7 +714,7 @@ void check_run_directory_format(const fs::path& dir) {
     if (!fs::exists(file)) continue;
     nlohmann::json j;
     try {
-      j = nlohmann::json::parse(read_text(file));
+      j = nlohmann::json::parse(read_file_text(file));
     } catch (const nlohmann::json::exception&) {
       continue;  // damaged, not of another format: the reader that needs the file says so
     }
@@ -776,7 +776,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
   // Every check comes before any change, so that a refused resume leaves the directory as it was.
   // 1. The configuration.
   const fs::path config_path = dir / "config.yaml";
-  const std::string config_text = read_text(config_path);
+  const std::string config_text = read_file_text(config_path);
   check_config(dir, cp["validation"].value("config", nlohmann::json::object()), config_text,
                e.settings);
   if (e.runner->episodes() < k)
@@ -791,7 +791,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     throw RunDirectoryDamaged(csv_path.string() + " is missing, but checkpoint.json covers " +
                               plural(static_cast<std::size_t>(k), "episode") +
                               ": restore the file or start the run again");
-  const std::string csv = read_text(csv_path);
+  const std::string csv = read_file_text(csv_path);
   std::size_t covered_end = 0;
   const int lines = complete_lines(csv, k + 1, &covered_end);
   if (lines < k + 1)
@@ -824,7 +824,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
                               ": restore the file or start the run again");
   nlohmann::json summary;
   try {
-    summary = nlohmann::json::parse(read_text(summary_path));
+    summary = nlohmann::json::parse(read_file_text(summary_path));
   } catch (const std::exception& ex) {
     throw RunDirectoryDamaged(summary_path.string() + " cannot be parsed (" + ex.what() +
                               "): restore the file or start the run again");
@@ -869,7 +869,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
       throw RunDirectoryDamaged(f.string() +
                                 " is missing, but checkpoint.json covers it: "
                                 "restore the file or start the run again");
-    if (sha256_hex(read_text(f)) != value.get<std::string>())
+    if (sha256_hex(read_file_text(f)) != value.get<std::string>())
       throw RunDirectoryDamaged(f.string() +
                                 " differs from what drops recorded (checksum in "
                                 "checkpoint.json): the file was edited or damaged; restore it "
@@ -897,7 +897,7 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
     // run evaluates again): keep its rows up to the cursor.
     const fs::path progress = dir / "archive_progress.csv";
     if (fs::exists(progress)) {
-      std::istringstream in(read_text(progress));
+      std::istringstream in(read_file_text(progress));
       std::string line, kept;
       int dropped = 0;
       for (bool header = true; std::getline(in, line); header = false) {
@@ -1059,7 +1059,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
     run.status = "not started";
   } else {
     try {
-      const nlohmann::json s = nlohmann::json::parse(read_text(summary_path));
+      const nlohmann::json s = nlohmann::json::parse(read_file_text(summary_path));
       check_format_version(s, summary_path);
       run.status = s.value("status", std::string("running"));
       run.error = s.value("error", std::string());

@@ -58,6 +58,9 @@ inline constexpr int kRunDirectoryFormatVersion = 1;
 /// use the drops that wrote the run or to run it again. Thread-safe.
 void check_run_directory_format(const std::filesystem::path& dir);
 
+/// The whole content of the file at path (binary). Throws drops::Error "cannot read PATH" when
+/// it cannot be opened. Thread-safe.
+std::string read_file_text(const std::filesystem::path& path);
 /// Writes text to path through path.tmp and a rename, so a reader or a crash never sees a partial
 /// file. Throws drops::Error naming the file when it cannot be written or renamed.
 void write_file_atomically(const std::filesystem::path& path, const std::string& text);
