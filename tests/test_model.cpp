@@ -187,13 +187,9 @@ TEST(MeanFunction, PredictionsAndResidualsCallEvaluateBatchOncePerBatch) {
   EXPECT_EQ(counting->single_calls.load(), 0);
 }
 
-// GP-MI's default score identifies every parameter of a prior whose parameters trade off and one
-// of whose outputs every phi predicts alike (issue 43): the pendulum above with m = 1 kg,
-// l = 0.6 m, b = 0.05 N m s, from three 2 s episodes of random torques in [-1, 1] N m, each of
-// m, l, b within 10 % of the truth from a prior 40-60 % off. The paper's sum of the likelihoods is
-// dominated by the angle's output, which phi does not change: docs/decisions/gp-mi-score.md.
-TEST(GpMi, TheDefaultScoreIdentifiesEveryParameterOfAPendulum) {
-  const Eigen::Vector3d truth(1.0, 0.6, 0.05);
+/// The Euler pendulum's data: three 2 s episodes of random torques in [-1, 1] N m from rest,
+/// hanging, with phi = truth.
+std::vector<Transition> euler_pendulum_data(const VectorXd& truth) {
   std::vector<Transition> data;
   Rng rng(7);
   for (int e = 0; e < 3; ++e) {
@@ -206,6 +202,12 @@ TEST(GpMi, TheDefaultScoreIdentifiesEveryParameterOfAPendulum) {
       x = next;
     }
   }
+  return data;
+}
+
+/// The pendulum prior's parameters m, l, b (kg, m, N m s), all tunable: start [0.5, 1, 0.02], 40-60 %
+/// off the truth of the tests, within [0.1, 2] x [0.1, 2] x [0, 0.5].
+model::PriorParameters euler_pendulum_parameters() {
   model::PriorParameters p;
   p.names = {"m", "l", "b"};
   p.values = Eigen::Vector3d(0.5, 1.0, 0.02);
@@ -213,6 +215,18 @@ TEST(GpMi, TheDefaultScoreIdentifiesEveryParameterOfAPendulum) {
   p.lower = Eigen::Vector3d(0.1, 0.1, 0.0);
   p.upper = Eigen::Vector3d(2.0, 2.0, 0.5);
   p.choices.assign(3, {});
+  return p;
+}
+
+// GP-MI's default score identifies every parameter of a prior whose parameters trade off and one
+// of whose outputs every phi predicts alike (issue 43): the pendulum above with m = 1 kg,
+// l = 0.6 m, b = 0.05 N m s, from three 2 s episodes of random torques in [-1, 1] N m, each of
+// m, l, b within 10 % of the truth from a prior 40-60 % off. The paper's sum of the likelihoods is
+// dominated by the angle's output, which phi does not change: docs/decisions/gp-mi-score.md.
+TEST(GpMi, TheDefaultScoreIdentifiesEveryParameterOfAPendulum) {
+  const Eigen::Vector3d truth(1.0, 0.6, 0.05);
+  const auto data = euler_pendulum_data(truth);
+  const model::PriorParameters p = euler_pendulum_parameters();
   auto learn = [&](const model::ModelOptions& o) {
     return model::make_model(o, std::make_shared<drops::testing::PendulumTask>(),
                              std::make_shared<EulerPendulumPrior>(), p)
@@ -228,23 +242,6 @@ TEST(GpMi, TheDefaultScoreIdentifiesEveryParameterOfAPendulum) {
   const auto sp = learn(paper);
   std::printf("[info] sum of the likelihoods: phi = [%g, %g, %g]\n", sp.phi[0], sp.phi[1],
               sp.phi[2]);
-}
-
-/// The Euler pendulum's data of the score test: three 2 s episodes of random torques in [-1, 1].
-std::vector<Transition> euler_pendulum_data(const VectorXd& truth) {
-  std::vector<Transition> data;
-  Rng rng(7);
-  for (int e = 0; e < 3; ++e) {
-    VectorXd x(2);
-    x << 0.0, std::numbers::pi;
-    for (int t = 0; t < 40; ++t) {
-      const VectorXd u = VectorXd::Constant(1, rng.uniform(-1.0, 1.0));
-      const VectorXd next = euler_pendulum_step(truth, x, u[0]);
-      data.push_back({x, u, next - x});
-      x = next;
-    }
-  }
-  return data;
 }
 
 /// The same pendulum whose inertia m l^2 is the product a c of two parameters (phi = [a, c],
@@ -276,13 +273,7 @@ class ProductPendulumPrior final : public model::MeanFunction {
 TEST(GpMi, ThePosteriorOverPhiIsNarrowWhereTheDataPinItAndShowsATradeOff) {
   const Eigen::Vector3d truth(1.0, 0.6, 0.05);
   const auto data = euler_pendulum_data(truth);
-  model::PriorParameters p;
-  p.names = {"m", "l", "b"};
-  p.values = Eigen::Vector3d(0.5, 1.0, 0.02);
-  p.tunable = {0, 1, 2};
-  p.lower = Eigen::Vector3d(0.1, 0.1, 0.0);
-  p.upper = Eigen::Vector3d(2.0, 2.0, 0.5);
-  p.choices.assign(3, {});
+  const model::PriorParameters p = euler_pendulum_parameters();
   const auto task = std::make_shared<drops::testing::PendulumTask>();
   const auto s = model::make_model({}, task, std::make_shared<EulerPendulumPrior>(), p)->learn(data);
   const auto& post = s.phi_posterior;
