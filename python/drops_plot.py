@@ -72,6 +72,21 @@ def save(fig, path):
 
 # ---------------------------------------------------------------- drops report
 
+def panels_and_variants(rows):
+    """The panels (prior column) and variants of a report table's rows, in the table's order
+    (drops sorts the groups), with each variant's legend label, each panel's title and each
+    variant's colour (variant_colors)."""
+    priors, variants, label, title = [], [], {}, {}
+    for r in rows:
+        if r["prior"] not in priors:
+            priors.append(r["prior"])
+        if r["variant"] not in variants:
+            variants.append(r["variant"])
+        label[r["variant"]] = r.get("variant_label") or r["variant"]
+        title[r["prior"]] = r.get("panel_title") or r["prior"]
+    return priors, variants, label, title, variant_colors(rows)
+
+
 def variant_colors(rows):
     """{variant: colour} of the rows of a report table (returns.csv), in the table's order.
 
@@ -105,16 +120,7 @@ def plot_report(returns_csv, output_png, ylabel="return"):
         ax.text(0.5, 0.5, "no finished episode yet", ha="center", va="center")
         save(fig, output_png)
         return
-    # Panels and variants in the table's order (drops sorts the groups).
-    priors, variants, label, title = [], [], {}, {}
-    for r in rows:
-        if r["prior"] not in priors:
-            priors.append(r["prior"])
-        if r["variant"] not in variants:
-            variants.append(r["variant"])
-        label[r["variant"]] = r.get("variant_label") or r["variant"]
-        title[r["prior"]] = r.get("panel_title") or r["prior"]
-    color = variant_colors(rows)
+    priors, variants, label, title, color = panels_and_variants(rows)
 
     n = len(priors)
     ncols = n if n <= 3 else (2 if n == 4 else 3)
@@ -622,15 +628,7 @@ def plot_calibration(calibration_csv, output_png):
     every predicted one (an optimistic model)."""
     with open(calibration_csv, newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["replay"] == "0" and r["quantile"] != "nan"]
-    priors, variants, label, title = [], [], {}, {}
-    for r in rows:
-        if r["prior"] not in priors:
-            priors.append(r["prior"])
-        if r["variant"] not in variants:
-            variants.append(r["variant"])
-        label[r["variant"]] = r.get("variant_label") or r["variant"]
-        title[r["prior"]] = r.get("panel_title") or r["prior"]
-    color = variant_colors(rows)
+    priors, variants, label, title, color = panels_and_variants(rows)
     n = max(1, len(priors))
     ncols = n if n <= 3 else (2 if n == 4 else 3)
     nrows = math.ceil(n / ncols)
