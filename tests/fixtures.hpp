@@ -33,4 +33,31 @@ inline experiment::Experiment experiment(const std::vector<std::string>& overrid
   return experiment::make_experiment(registry(), settings(yaml, overrides));
 }
 
+/// A model of one's own for the tests of model factories and registered variants: another model
+/// behind a wrapper that counts its learn() calls in *learns.
+class CountingModel final : public model::DynamicsModel {
+ public:
+  CountingModel(std::unique_ptr<model::DynamicsModel> m, int* learns)
+      : m_(std::move(m)), learns_(learns) {}
+  model::ModelSummary learn(const std::vector<Transition>& d,
+                            const model::ModelProgress& p) override {
+    ++*learns_;
+    return m_->learn(d, p);
+  }
+  void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override {
+    m_->predict(x, u, out);
+  }
+  void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
+                     MatrixXd& var) const override {
+    m_->predict_batch(X, U, mean, var);
+  }
+  VectorXd phi() const override { return m_->phi(); }
+  model::ModelState state() const override { return m_->state(); }
+  void restore(const model::ModelState& s) override { m_->restore(s); }
+
+ private:
+  std::unique_ptr<model::DynamicsModel> m_;
+  int* learns_;
+};
+
 }  // namespace drops::fixtures

@@ -205,30 +205,7 @@ TEST(BlackDrops, ReevaluatedSelectionPicksABetterMeanThanTheLuckiestDrawOnANoisy
 TEST(BlackDrops, ACustomModelFactoryIsUsedForEveryLearning) {
   const auto e = fixtures::experiment({"episodes=3", "optimizer.max_evaluations=300",
                                        "optimizer.prior_optimizations=1"});
-  class Counting final : public model::DynamicsModel {
-   public:
-    Counting(std::unique_ptr<model::DynamicsModel> m, int* learns)
-        : m_(std::move(m)), learns_(learns) {}
-    model::ModelSummary learn(const std::vector<Transition>& d,
-                              const model::ModelProgress& p) override {
-      ++*learns_;
-      return m_->learn(d, p);
-    }
-    void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override {
-      m_->predict(x, u, out);
-    }
-    void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
-                       MatrixXd& var) const override {
-      m_->predict_batch(X, U, mean, var);
-    }
-    VectorXd phi() const override { return m_->phi(); }
-    model::ModelState state() const override { return m_->state(); }
-    void restore(const model::ModelState& s) override { m_->restore(s); }
 
-   private:
-    std::unique_ptr<model::DynamicsModel> m_;
-    int* learns_;
-  };
   auto o = experiment::black_drops_options(fixtures::registry(), e.settings);
   std::vector<algo::EpisodeRecord> plain, custom;
   algo::BlackDropsCallbacks cb;
@@ -240,7 +217,7 @@ TEST(BlackDrops, ACustomModelFactoryIsUsedForEveryLearning) {
                         std::shared_ptr<const model::MeanFunction> p,
                         const model::PriorParameters& pp) -> std::unique_ptr<model::DynamicsModel> {
     ++made;
-    return std::make_unique<Counting>(model::make_model(mo, t, p, pp), &learns);
+    return std::make_unique<fixtures::CountingModel>(model::make_model(mo, t, p, pp), &learns);
   };
   cb.on_episode = [&](const algo::EpisodeRecord& r) { custom.push_back(r); };
   algo::run_black_drops(e.setup.task, *e.setup.real, *e.setup.policy, e.setup.prior,

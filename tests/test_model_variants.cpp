@@ -39,34 +39,8 @@ const KeySpec& key_of(const std::vector<KeySpec>& keys, const std::string& key) 
   return *it;
 }
 
-/// A model of one's own: the gp_prior model behind a wrapper that counts its learn() calls.
-class CountingModel final : public model::DynamicsModel {
- public:
-  CountingModel(std::unique_ptr<model::DynamicsModel> m, int* learns)
-      : m_(std::move(m)), learns_(learns) {}
-  model::ModelSummary learn(const std::vector<Transition>& d,
-                            const model::ModelProgress& p) override {
-    ++*learns_;
-    return m_->learn(d, p);
-  }
-  void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override {
-    m_->predict(x, u, out);
-  }
-  void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
-                     MatrixXd& var) const override {
-    m_->predict_batch(X, U, mean, var);
-  }
-  VectorXd phi() const override { return m_->phi(); }
-  model::ModelState state() const override { return m_->state(); }
-  void restore(const model::ModelState& s) override { m_->restore(s); }
-
- private:
-  std::unique_ptr<model::DynamicsModel> m_;
-  int* learns_;
-};
-
 /// The registry of the drops command line (built-in algorithms, the pendubot) plus the model
-/// variant "counting_gp": CountingModel around gp_prior, counting into *made and *learns.
+/// variant "counting_gp": fixtures::CountingModel around gp_prior, counting into *made and *learns.
 std::unique_ptr<Registry> registry_with_own_variant(int* made, int* learns) {
   auto r = std::make_unique<Registry>();
   register_builtin_algorithms(*r);
@@ -83,7 +57,7 @@ std::unique_ptr<Registry> registry_with_own_variant(int* made, int* learns) {
     ++*made;
     model::ModelOptions o = options;
     o.type = model::ModelType::kGpPrior;
-    return std::make_unique<CountingModel>(
+    return std::make_unique<fixtures::CountingModel>(
         model::make_model(o, std::move(task), std::move(prior), parameters), learns);
   };
   r->add_model_variant(std::move(v));
