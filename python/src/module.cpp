@@ -97,6 +97,9 @@ struct PythonOutput {
   // KeyboardInterrupt (Ctrl-C, seen by PyErr_CheckSignals or raised in the progress callable): the
   // run stops after its current step, its final lines are printed, then it is raised again.
   std::optional<py::error_already_set> interrupt;
+  // The run's Python callbacks' errors (a run of a task written in Python), or null: Ctrl-C
+  // inside a callback also stops the run after its current step.
+  const drops::python::CallbackErrors* callback_errors = nullptr;
 
   void write(const std::string& text, bool newline) {
     if (error) return;  // the output already failed: say nothing more
@@ -118,7 +121,7 @@ struct PythonOutput {
   }
 
   bool should_stop() {
-    if (error || interrupt) return true;
+    if (error || interrupt || (callback_errors && callback_errors->interrupted())) return true;
     py::gil_scoped_acquire gil;
     // Runs Python's signal handlers: Ctrl-C raises KeyboardInterrupt here (main thread only).
     if (PyErr_CheckSignals() != 0) {
@@ -147,6 +150,7 @@ PyRunOutcome run_impl(const ex::Registry& reg, const ex::Settings& settings,
                       drops::python::CallbackErrors* callback_errors = nullptr) {
   PythonOutput py_out;
   py_out.progress = std::move(progress);
+  py_out.callback_errors = callback_errors;
   ex::RunOutput out;
   out.quiet = quiet;
   if (py_out.progress.is_none()) {
@@ -174,6 +178,8 @@ PyRunOutcome run_impl(const ex::Registry& reg, const ex::Settings& settings,
   }
   if (py_out.error) throw std::move(*py_out.error);
   if (py_out.interrupt) throw std::move(*py_out.interrupt);
+  if (callback_errors)
+    if (auto e = callback_errors->take_interrupt()) throw std::move(*e);
   PyRunOutcome o;
   o.directory = r.directory.string();
   o.status = r.status;

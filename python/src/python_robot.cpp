@@ -89,10 +89,22 @@ void require_finite(const MatrixXd& m, const MatrixXd& X, const std::string& cal
 }
 
 // Calls f() with the interpreter lock held; a Python exception is kept in `errors` and thrown on
-// as CallbackError.
+// as CallbackError. Ctrl-C inside a call that has no side effects (`repeatable`: the task's and
+// the prior's callbacks, System.step(x, u)) does not fail the run: Python has handled the signal
+// by raising KeyboardInterrupt in the callback, so the interrupt is kept, the call is made again
+// and the run stops after its current step (errors.interrupted()), as on the command line. A
+// second Ctrl-C in the same call, or one inside a physical robot's session step (which may have
+// moved the robot), fails the run like any exception; finished episodes stay on disk either way.
 template <class F>
-auto with_python(CallbackErrors& errors, const std::string& callback, F&& f) {
+auto with_python(CallbackErrors& errors, const std::string& callback, F&& f,
+                 bool repeatable = true) {
   py::gil_scoped_acquire gil;
+  try {
+    return f();
+  } catch (py::error_already_set& e) {
+    if (!repeatable || !e.matches(PyExc_KeyboardInterrupt)) errors.raise(std::move(e), callback);
+    errors.interrupt(std::move(e));
+  }
   try {
     return f();
   } catch (py::error_already_set& e) {
@@ -151,6 +163,7 @@ Spec read_spec(const py::dict& d) {
 // The Python objects' methods (borrowed from the plugin, which owns them).
 struct Callbacks {
   py::handle observe, reward, solved, begin_episode, evaluate, check_phi;
+  py::handle step_session_type;  // drops.robot._StepSession, the session of System.step(x, u)
   std::shared_ptr<CallbackErrors> errors;
 };
 
@@ -210,35 +223,43 @@ class PyTask final : public Task {
 // interpreter lock held.
 class PySession final : public EpisodeSession {
  public:
-  PySession(py::object session, int E, const Callbacks& c) : session_(std::move(session)),
-                                                             E_(E), c_(c) {}
+  // Called with the interpreter lock held.
+  PySession(py::object session, int E, const Callbacks& c)
+      : session_(std::move(session)), E_(E), c_(c),
+        repeatable_(py::isinstance(session_, c.step_session_type)) {}
   ~PySession() override {
     py::gil_scoped_acquire gil;
     session_ = py::object();
   }
   VectorXd step(const VectorXd& u, Rng&) override {
     const std::string cb = "the session's step (System.begin_episode(x0).step(u))";
-    return with_python(*c_.errors, cb, [&] {
-      const py::object r = session_.attr("step")(to_array(u));
-      return vector_of(checked(r, cb, {E_}, "the next state: E = " + std::to_string(E_)));
-    });
+    return with_python(
+        *c_.errors, cb,
+        [&] {
+          const py::object r = session_.attr("step")(to_array(u));
+          return vector_of(checked(r, cb, {E_}, "the next state: E = " + std::to_string(E_)));
+        },
+        repeatable_);
   }
 
  private:
   py::object session_;
   int E_;
   Callbacks c_;
+  // The default session (drops.System.step(x, u)): a step can be made again (no side effect).
+  bool repeatable_;
 };
 
 class PySystem final : public System {
  public:
   PySystem(int E, Callbacks c) : E_(E), c_(std::move(c)) {}
   VectorXd step(const VectorXd& x, const VectorXd& u, Rng& rng) const override {
-    PySession s(begin(x), E_, c_);
-    return s.step(u, rng);
+    return begin_episode(x)->step(u, rng);
   }
   std::unique_ptr<EpisodeSession> begin_episode(const VectorXd& x0) const override {
-    return std::make_unique<PySession>(begin(x0), E_, c_);
+    py::object session = begin(x0);
+    py::gil_scoped_acquire gil;
+    return std::make_unique<PySession>(std::move(session), E_, c_);
   }
 
  private:
@@ -259,14 +280,15 @@ class PyPrior final : public model::MeanFunction {
   void check_phi(const VectorXd& phi) const override {
     check_size("Prior: phi", static_cast<long>(s_.phi_names.size()), phi.size());
     if (!s_.has_check_phi) return;
-    py::gil_scoped_acquire gil;
-    try {
-      c_.check_phi(to_array(phi));
-    } catch (py::error_already_set& e) {
-      // ValueError: phi outside the simulator's domain (GP-MI scores it -inf and moves on).
-      if (e.matches(PyExc_ValueError)) throw InvalidArgument(e.what());
-      c_.errors->raise(std::move(e), "Prior.check_phi");
-    }
+    with_python(*c_.errors, "Prior.check_phi", [&] {
+      try {
+        c_.check_phi(to_array(phi));
+      } catch (py::error_already_set& e) {
+        // ValueError: phi outside the simulator's domain (GP-MI scores it -inf and moves on).
+        if (e.matches(PyExc_ValueError)) throw InvalidArgument(e.what());
+        throw;
+      }
+    });
   }
   void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
                 Eigen::Ref<VectorXd> dx) const override {
@@ -308,6 +330,8 @@ class PyTaskPlugin final : public ex::TaskPlugin {
     c_.reward = owned_[1];
     c_.solved = owned_[2];
     c_.begin_episode = owned_[3];
+    owned_.push_back(py::module_::import("drops.robot").attr("_StepSession"));
+    c_.step_session_type = owned_.back();
     if (!prior_.is_none()) {
       owned_.push_back(prior_.attr("evaluate"));
       c_.evaluate = owned_.back();
@@ -386,6 +410,19 @@ void CallbackErrors::raise(py::error_already_set&& e, const std::string& callbac
     if (!first_) first_.emplace(std::move(e));
   }
   throw CallbackError(message);
+}
+
+void CallbackErrors::interrupt(py::error_already_set&& e) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!interrupt_) interrupt_.emplace(std::move(e));
+  interrupted_ = true;
+}
+
+std::optional<py::error_already_set> CallbackErrors::take_interrupt() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::optional<py::error_already_set> e = std::move(interrupt_);
+  interrupt_.reset();
+  return e;
 }
 
 std::optional<py::error_already_set> CallbackErrors::take() {

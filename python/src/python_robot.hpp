@@ -7,6 +7,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -27,7 +28,9 @@ class CallbackError : public Error {
 };
 
 /// The first Python exception raised by one run's callbacks, so that the run call raises it again
-/// with its type and message once the C++ side has unwound. Thread-safe.
+/// with its type and message once the C++ side has unwound; and the first KeyboardInterrupt
+/// (Ctrl-C) raised inside a callback that could be called again, which stops the run after its
+/// current step instead (as Ctrl-C does on the command line). Thread-safe.
 class CallbackErrors {
  public:
   /// Keeps `e` if it is the first and throws CallbackError("<callback> raised <type>: <msg>").
@@ -35,10 +38,19 @@ class CallbackErrors {
   [[noreturn]] void raise(py::error_already_set&& e, const std::string& callback);
   /// Moves out the kept exception (empty when no callback raised).
   std::optional<py::error_already_set> take();
+  /// Keeps the KeyboardInterrupt `e` (the first) and makes interrupted() true. Called with the
+  /// interpreter lock held.
+  void interrupt(py::error_already_set&& e);
+  /// Whether a callback was interrupted by Ctrl-C: the run should stop after its current step.
+  bool interrupted() const { return interrupted_.load(); }
+  /// Moves out the kept KeyboardInterrupt (empty when none).
+  std::optional<py::error_already_set> take_interrupt();
 
  private:
   std::mutex mutex_;
   std::optional<py::error_already_set> first_;
+  std::optional<py::error_already_set> interrupt_;
+  std::atomic<bool> interrupted_{false};
 };
 
 /// The task plugin of a robot written in Python. `spec` is the dict drops/robot.py's

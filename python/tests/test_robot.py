@@ -1,5 +1,6 @@
 """Your own robot in Python (examples/python/pendulum.py): GP-MI identifies the example's wrong
-prior and swings it up; a callback's exception comes out as itself and the run resumes; wrong
+prior and swings it up; a callback's exception comes out as itself and the run resumes; Ctrl-C
+inside a callback stops the run after its step (a physical robot's step is never repeated); wrong
 shapes and non-finite values are refused naming the callback; the same seed gives the same
 episodes with 1 and 2 threads."""
 
@@ -80,6 +81,72 @@ def test_a_callbacks_exception_comes_out_as_itself_and_the_run_resumes(tmp_path)
     drops.run(overrides={**SMALL, "episodes": 4}, output=tmp_path, name="g", quiet=True,
               progress=lambda line: None, **robot())
     assert rows(tmp_path / "f") == rows(tmp_path / "g")
+
+
+class CtrlCPrior(pendulum.PendulumPrior):
+    """The example's prior, in which KeyboardInterrupt is raised once after `arm()` was called
+    (as Python raises it inside a callback when Ctrl-C arrives)."""
+    armed = False
+
+    def arm(self):
+        self.armed = True
+
+    def evaluate(self, x, u, phi):
+        if self.armed:
+            self.armed = False
+            raise KeyboardInterrupt
+        return super().evaluate(x, u, phi)
+
+
+def test_ctrl_c_inside_a_callback_stops_the_run_after_its_step_and_it_resumes(tmp_path):
+    r = robot()
+    r["prior"] = prior = CtrlCPrior()
+    settings = {**SMALL, "episodes": 4}
+
+    def progress(line):  # Ctrl-C during episode 2's model learning or policy search
+        if line.startswith("episode  1/"):
+            prior.arm()
+
+    with pytest.raises(KeyboardInterrupt):
+        drops.run(overrides=settings, output=tmp_path, name="c", progress=progress, **r)
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and len(summary["episodes"]) == 1
+    more = drops.resume(tmp_path / "c", quiet=True, progress=lambda line: None, **robot())
+    assert more.status == "complete" and more.episodes_done == 4
+    drops.run(overrides=settings, output=tmp_path, name="g", quiet=True,
+              progress=lambda line: None, **robot())
+    assert rows(tmp_path / "c") == rows(tmp_path / "g")
+
+
+class CtrlCSession:
+    """A physical robot's session whose step is interrupted by Ctrl-C."""
+    steps = 0
+
+    def step(self, u):
+        CtrlCSession.steps += 1
+        raise KeyboardInterrupt
+
+
+class CtrlCRobot(pendulum.RealPendulum):
+    """Episode 1 runs as the simulated pendulum; Ctrl-C arrives in episode 2's first step."""
+    episodes = 0
+
+    def begin_episode(self, x0):
+        self.episodes += 1
+        return super().begin_episode(x0) if self.episodes == 1 else CtrlCSession()
+
+
+def test_ctrl_c_inside_a_physical_robots_step_is_not_repeated_and_fails_the_run(tmp_path):
+    r = robot()
+    r["system"] = CtrlCRobot()
+    with pytest.raises(KeyboardInterrupt):
+        drops.run(overrides={**SMALL, "episodes": 3}, output=tmp_path, name="p", quiet=True,
+                  progress=lambda line: None, **r)
+    assert CtrlCSession.steps == 1  # the robot's step is never made twice
+    summary = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert summary["status"] == "failed" and len(summary["episodes"]) == 1
+    more = drops.resume(tmp_path / "p", quiet=True, progress=lambda line: None, **robot())
+    assert more.status == "complete" and more.episodes_done == 3
 
 
 class RaisingPrior(pendulum.PendulumPrior):
