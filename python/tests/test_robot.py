@@ -209,3 +209,29 @@ def test_the_same_seed_gives_the_same_episodes_with_1_and_2_threads(tmp_path):
         for name in ("real.csv", "policy.csv"):
             a = (tmp_path / "t1" / "episodes" / f"{k:03d}" / name).read_text()
             assert a == (tmp_path / "t2" / "episodes" / f"{k:03d}" / name).read_text()
+
+
+def test_every_algorithm_that_needs_only_the_three_pieces_runs_and_the_others_are_refused(tmp_path):
+    runs = {"gp": {"model.type": "gp"}, "gp_prior": {"model.type": "gp_prior"},
+            "mi": {"model.type": "mi"}, "direct": {"algorithm": "direct",
+                                                   "optimizer.max_evaluations": 12}}
+    for name, settings in runs.items():
+        overrides = {**SMALL, **settings} if name != "direct" else settings
+        if name != "direct":
+            overrides["episodes"] = 2
+        out = drops.run(overrides=overrides, output=tmp_path, name=name, quiet=True,
+                        progress=lambda line: None, **robot())
+        run = drops.read_run(out.directory)
+        assert out.status == "complete" and run.algorithm == settings.get("algorithm",
+                                                                          "black_drops")
+        assert len(run.episodes["episode"]) == (12 if name == "direct" else 2)
+        # MI moves phi from the prior's start on the first episode's data; gp_prior keeps it.
+        if name == "mi":
+            assert not np.allclose(run.episodes["phi"][-1], [0.6, 0.7])
+        if name == "gp_prior":
+            np.testing.assert_array_equal(run.episodes["phi"][-1], [0.6, 0.7])
+    # A task written in Python declares no IT&E behaviour descriptor and no PILCO task model.
+    for algorithm in ("ite", "pilco"):
+        with pytest.raises(drops.ConfigError, match=f"'algorithm' = '{algorithm}'"):
+            drops.run(overrides={"algorithm": algorithm}, output=tmp_path, quiet=True,
+                      progress=lambda line: None, **robot())
