@@ -2,7 +2,7 @@
 prior and swings it up; a callback's exception comes out as itself and the run resumes; Ctrl-C
 inside a callback stops the run after its step (a physical robot's step is never repeated); wrong
 shapes and non-finite values are refused naming the callback; the same seed gives the same
-episodes with 1 and 2 threads."""
+episodes with 1 and 2 threads; the algorithms that need only a task, a system and a prior run."""
 
 import csv
 import json
