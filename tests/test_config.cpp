@@ -283,6 +283,103 @@ TEST(Config, TaskKeysBelongToTheirTask) {
   EXPECT_THROW(reg.add_task(std::make_unique<Bad>()), InvalidArgument);
 }
 
+// Each base key is declared once with the field it sets (base_key_table): a value other than the
+// default, applied through the declarations, changes that key's field and no other key's (read
+// back through the same declarations), so no two keys share a field and none sets nothing.
+TEST(Config, EveryBaseKeySetsAFieldOfItsOwn) {
+  const auto& table = experiment::base_key_table();
+  const auto registered = experiment::schema(registry(), "pendubot");
+  const experiment::Settings start = settings("");
+  // The base keys with the values of `start` as their defaults (a derived key's: "").
+  const std::vector<experiment::KeySpec> defaults = table.specs(experiment::base_options(start));
+  int changed = 0;
+  for (std::size_t i = 0; i < defaults.size(); ++i) {
+    const experiment::KeySpec& k = defaults[i];
+    std::string v;
+    if (k.type == "bool") {
+      v = k.default_value == "true" ? "false" : "true";
+    } else if (k.type == "enum") {
+      const auto it = std::find_if(registered.begin(), registered.end(),
+                                   [&](const experiment::KeySpec& r) { return r.key == k.key; });
+      ASSERT_NE(it, registered.end()) << k.key;
+      for (const auto& a : it->allowed)
+        if (a != k.default_value) v = a;
+    } else if (k.type == "string") {
+      v = k.default_value + "x";
+    } else if (!k.default_value.empty()) {  // int or double (a derived key reads back as "")
+      ASSERT_LT(k.min, k.max) << k.key;
+      const double d = std::stod(k.default_value);
+      const double x = d != k.max ? k.max : k.min;
+      v = k.type == "int" ? std::to_string(static_cast<long long>(x)) : fixtures::exact_text(x);
+    }
+    if (v.empty()) continue;
+    experiment::Settings s = start;
+    s[k.key] = v;
+    const auto back = table.specs(experiment::base_options(s));
+    ASSERT_EQ(back.size(), defaults.size());
+    for (std::size_t j = 0; j < back.size(); ++j) {
+      const std::string want = j == i ? v : defaults[j].default_value;
+      if (defaults[j].type == "int" || defaults[j].type == "double")
+        if (!want.empty() && !back[j].default_value.empty()) {
+          EXPECT_DOUBLE_EQ(std::stod(back[j].default_value), std::stod(want))
+              << "setting " << k.key << " = " << v << " changed " << back[j].key;
+          continue;
+        }
+      EXPECT_EQ(back[j].default_value, want)
+          << "setting " << k.key << " = " << v << " changed " << back[j].key;
+    }
+    ++changed;
+  }
+  EXPECT_GE(changed, static_cast<int>(defaults.size()) - 1);  // all but the derived one
+}
+
+// A task's default of a shared key goes through that key's declaration: it is the default of the
+// task's schema (and its section of the Markdown), and a value the declaration refuses, or a key
+// that does not exist, is refused naming the task and the key.
+TEST(Config, ATasksDefaultIsValidatedByTheKeysDeclarationAndIsItsSchemasDefault) {
+  const auto default_of = [](const std::vector<experiment::KeySpec>& keys, const std::string& k) {
+    for (const auto& s : keys)
+      if (s.key == k) return s.default_value;
+    return std::string("(absent)");
+  };
+  const auto toy = experiment::schema(toy_registry(), "toy");
+  EXPECT_EQ(default_of(toy, "policy.bound"), "0.5");
+  EXPECT_EQ(default_of(toy, "model.rprop.penalty"), "on");
+  const auto pendubot = experiment::schema(toy_registry(), "pendubot");
+  EXPECT_EQ(default_of(pendubot, "model.rprop.penalty"), "off");  // the Options struct's
+  EXPECT_EQ(default_of(experiment::base_keys(), "policy.bound"), "5");
+  EXPECT_NE(experiment::schema_markdown(toy_registry()).find("`policy.bound` = `0.5`"),
+            std::string::npos);
+  class Far : public ToyTask {
+    std::string name() const override { return "far"; }
+    std::vector<experiment::KeySpec> keys() const override { return {}; }
+    std::map<std::string, std::string> shared_defaults() const override {
+      return {{"policy.bound", "5000"}};
+    }
+  };
+  class Misspelt : public Far {
+    std::string name() const override { return "misspelt"; }
+    std::map<std::string, std::string> shared_defaults() const override {
+      return {{"policy.bund", "1"}};
+    }
+  };
+  experiment::Registry reg;
+  experiment::register_builtin_algorithms(reg);
+  reg.add_task(std::make_unique<Far>());
+  reg.add_task(std::make_unique<Misspelt>());
+  for (const auto& [task, words] :
+       std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"far", {"task 'far'", "'policy.bound' = '5000'", "out of range"}},
+           {"misspelt", {"task 'misspelt'", "'policy.bund'"}}}) {
+    try {
+      experiment::schema(reg, task);
+      ADD_FAILURE() << task << "'s default was accepted";
+    } catch (const ConfigError& e) {
+      for (const auto& w : words) EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Config, TaskDependentDefaultsComeFromTheTaskAndExplicitValuesWin) {
   const auto& r = toy_registry();
   const auto toy = experiment::load_settings(r, "task: toy\n", {});
@@ -332,17 +429,17 @@ TEST(Config, OmittedSearchKeysTakeTodaysDefaultsAndARunConfigLoadsBackUnchanged)
   EXPECT_EQ(set.search.cmaes.max_run_evaluations, 0);
 }
 
-// Settings that hold the task-dependent values explicitly (as a run directory's config.yaml does),
-// "auto" or empty compare equal to the derived defaults once resolved (the campaign compares a
-// kept run's config.yaml with the campaign's settings this way).
+// Settings that hold the defaults explicitly (as a run directory's config.yaml does), or leave a
+// derived one empty, compare equal to the defaults once resolved (the campaign compares a kept
+// run's config.yaml with the campaign's settings this way).
 TEST(Config, ResolvedDerivedDefaultsEqualTheSameValuesWrittenExplicitly) {
   const auto now = settings("");
   const auto written = experiment::load_settings(
       registry(),
       "task: pendubot\noptimizer: {max_evaluations: 10000, selection: reevaluate, "
       "run_evaluations: ~, stagnation: true, tol_fun: 0.01, restart_from: mixed}\n"
-      "policy: {bound: 5, hidden_units: 10}\nmodel: {rprop: {penalty: auto, "
-      "max_length_scale_ratio: ~}, gp_mi: {score: sum_likelihoods, candidate_start: "
+      "policy: {bound: 5, hidden_units: 10}\nmodel: {rprop: {penalty: off, "
+      "max_length_scale_ratio: 100}, gp_mi: {score: sum_likelihoods, candidate_start: "
       "best_so_far}}\n",
       {});
   EXPECT_EQ(now.at("optimizer.max_evaluations"), "10000");

@@ -11,206 +11,13 @@
 #include <set>
 #include <sstream>
 
-#include "drops/algo/black_drops.hpp"
 #include "drops/core/errors.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
 
 namespace drops::experiment {
 namespace {
-
-/// Shortest text that reads back as v ("0.01", "1e-12", "300").
-std::string num(double v) { return fmt::format("{}", v); }
-std::string boolean(bool v) { return v ? "true" : "false"; }
-
-std::string score_name(model::GpMiScore v) {
-  return v == model::GpMiScore::kSumOfLogLikelihoods ? "sum_log_likelihoods" : "sum_likelihoods";
-}
-
-std::string candidate_start_name(model::GpMiCandidateStart v) {
-  return v == model::GpMiCandidateStart::kInitial ? "initial" : "best_so_far";
-}
-
-std::string restart_name(opt::CmaesRestartStart r) {
-  return r == opt::CmaesRestartStart::kRandom ? "random"
-         : r == opt::CmaesRestartStart::kStart ? "start"
-                                                : "mixed";
-}
-
-/// Values of the base keys whose schema default is empty (or, for an enum, "auto") because some
-/// task changes it: what they are when the task says nothing (the Options structs' defaults).
-std::map<std::string, std::string> fallback_defaults() {
-  const algo::BlackDropsOptions d;
-  return {{"policy.bound", num(d.search.theta_bound)},
-          {"optimizer.max_evaluations", num(static_cast<double>(d.search.cmaes.max_evaluations))},
-          {"optimizer.reevaluation_rollouts", num(d.search.reevaluation.rollouts)},
-          {"model.rprop.max_length_scale_ratio", num(d.model.rprop.max_length_scale_ratio)},
-          {"model.rprop.penalty", d.model.rprop.penalty ? "on" : "off"},
-          {"model.gp_mi.score", score_name(d.model.gp_mi.score)},
-          {"model.gp_mi.candidate_start", candidate_start_name(d.model.gp_mi.candidate_start)},
-          {"optimizer.trust_region", d.trust_region.enabled ? "true" : "false"}};
-}
-
-std::vector<KeySpec> build_base_keys() {
-  const algo::BlackDropsOptions d;  // the single source of the defaults
-  const auto& m = d.model;
-  const auto& c = d.search.cmaes;
-  const auto& ps = d.search;
-  std::vector<KeySpec> s;
-  auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
-  const double big = 1e9;
-  add({"task", "string", "", 0, 0, {}, "-",
-       "the learning problem, one of the registered tasks (empty = the first registered: the "
-       "first task of the drops command line); `drops config --markdown` lists each task's keys"});
-  // Allowed values: the registry's algorithms (registered_base_keys).
-  add({"algorithm", "string", "", 0, 0, {}, "-",
-       "the learning algorithm, one of the registered algorithms (each described in its own "
-       "section; empty = the first registered: black_drops, Algorithm 1 with the model of "
-       "model.type, for the drops command line)"});
-  add({"seed", "int", num(static_cast<double>(d.seed)), 0, 4294967295.0, {}, "-",
-       "the run's only seed: every random stream derives from it (same numbers with any thread count)"});
-  add({"episodes", "int", num(d.episodes), 1, 1000, {}, "-",
-       "real episodes in total, including the first one"});
-  add({"threads", "int", "0", 0, 1024, {}, "-", "worker threads (0 = all hardware threads)"});
-  add({"output", "string", "runs", 0, 0, {}, "-", "parent directory of run directories"});
-  add({"name", "string", "", 0, 0, {}, "-",
-       "run directory name (empty = <task>-<variant>-<prior>-seed<seed>-<date>-<time>)"});
-  // Allowed values and help: the registry's model variants (registered_base_keys).
-  add({"model.type", "enum", model::to_string(m.type), 0, 0, {}, "-",
-       "the model variant of Black-DROPS, one of the registered model variants"});
-  add({"model.rprop.iterations", "int", num(m.rprop.max_iterations), 1, 100000, {}, "-",
-       "Rprop iterations of the final kernel fit per output GP"});
-  add({"model.rprop.tolerance", "double", num(m.rprop.tolerance), 0, big, {}, "nats",
-       "stop a kernel fit early when the log-likelihood gains less than this over `patience` "
-       "iterations (0 = always run every iteration)"});
-  add({"model.rprop.patience", "int", num(m.rprop.patience), 1, 100000, {}, "-",
-       "window of the tolerance test"});
-  add({"model.rprop.penalty", "enum", "auto", 0, 0, {"auto", "on", "off"}, "-",
-       "PILCO's soft walls on extreme length scales and signal-to-noise ratios in the kernel fits "
-       "(auto = the task's choice, off unless the task says otherwise: a task whose GPs have few "
-       "points in many input dimensions needs them, or they interpolate noise; the reference used "
-       "them for its no-prior variant: model.type gp with penalty on)"});
-  add({"model.rprop.max_length_scale_ratio", "double", "", 1.001, 1e6, {}, "-",
-       "soft walls: length scale l_d within [s_d / ratio, ratio s_d], s_d the spread of input d "
-       "(empty = the task's choice: " + num(m.rprop.max_length_scale_ratio) +
-           ", PILCO's value, unless the task says otherwise)"});
-  add({"model.rprop.max_snr", "double", num(m.rprop.max_snr), 1.001, 1e9, {}, "-",
-       "soft walls: signal-to-noise ratio sigma_f / sigma_n at most this (PILCO: 500)"});
-  add({"model.gp_mi.search", "enum",
-       m.gp_mi.search == model::GpMiSearch::kNested ? "nested" : "alternating", 0, 0,
-       {"alternating", "nested"}, "-",
-       "nested: paper's Algorithm 2 (Rprop inside every Subplex evaluation); alternating: "
-       "block-coordinate ascent on the same score (much faster)"});
-  add({"model.gp_mi.score", "enum", "auto", 0, 0,
-       {"auto", "sum_likelihoods", "sum_log_likelihoods"}, "-",
-       "GP-MI's score: log sum_i exp(loglik_i), the paper's sum of the likelihoods, or "
-       "sum_i loglik_i, the joint likelihood of the output GPs (every output counts); auto = "
-       "the task's choice, " +
-           score_name(m.gp_mi.score) + " unless the task says otherwise"});
-  add({"model.gp_mi.candidate_start", "enum", "auto", 0, 0, {"auto", "best_so_far", "initial"},
-       "-",
-       "nested search (and a discrete phi): each candidate's kernel fit starts from the best "
-       "candidate's kernels so far, or from a new GP's (equal terms for every candidate; "
-       "docs/architecture.md); auto = the task's choice, " +
-           candidate_start_name(m.gp_mi.candidate_start) + " unless the task says otherwise"});
-  add({"model.gp_mi.max_evaluations", "int", num(m.gp_mi.max_evaluations), 1, 1000000, {}, "-",
-       "Subplex evaluations per phi search"});
-  add({"model.gp_mi.tolerance", "double", num(m.gp_mi.xtol_rel), 0, 1, {}, "-",
-       "Subplex relative tolerance on phi and on the score"});
-  add({"model.gp_mi.rounds", "int", num(m.gp_mi.rounds), 1, 100, {}, "-",
-       "alternating search: maximum rounds"});
-  add({"model.gp_mi.inner_rprop_iterations", "int", num(m.gp_mi.inner_rprop_iterations), 1,
-       100000, {}, "-", "Rprop iterations of kernel refits inside the phi search"});
-  add({"model.gp_mi.max_points", "int", num(m.gp_mi.max_points), 0, 1000000, {}, "-",
-       "transitions used inside the phi search, evenly spaced (0 = all); the final fit uses all"});
-  add({"model.mi.max_evaluations", "int", num(m.mi.max_evaluations), 1, 1000000, {}, "-",
-       "Subplex evaluations of MI"});
-  add({"model.mi.tolerance", "double", num(m.mi.xtol_rel), 0, 1, {}, "-",
-       "Subplex relative tolerance of MI"});
-  add({"policy.bound", "double", "", 1e-3, 1000, {}, "-",
-       "policy parameters are searched in [-bound, bound] (empty = the task's choice: " +
-           num(ps.theta_bound) + " unless the task says otherwise)"});
-  add({"optimizer.max_evaluations", "int", "", 10, 100000000, {}, "-",
-       "CMA-ES policy evaluations per optimization, all restarts (empty = the task's choice: " +
-           num(static_cast<double>(c.max_evaluations)) +
-           " unless the task says otherwise); for algorithm=direct, the number "
-           "of real episodes"});
-  add({"optimizer.run_evaluations", "int", "", 0, 100000000, {}, "-",
-       "CMA-ES evaluations of one run before it restarts (empty = a quarter of "
-       "optimizer.max_evaluations; 0 = no per-run budget): with a noisy objective the tolerances "
-       "rarely end a run, so this is what makes restarts happen"});
-  add({"optimizer.restarts", "int", num(c.max_restarts), 0, 100, {}, "-",
-       "large-population (IPOP) restarts after the first run; BIPOP's small runs come in between"});
-  add({"optimizer.restart_from", "enum", restart_name(c.restart_start), 0, 0,
-       {"mixed", "random", "start"}, "-",
-       "where restarts begin: mixed = BIPOP's small (local) runs from the start policy and its large "
-       "runs from random points; random = every restart from a random point (Hansen 2009); start = "
-       "every restart from the start policy"});
-  add({"optimizer.tol_fun", "double", num(c.tol_fun), 0, 1e6, {}, "return",
-       "a run stops when its best returns of the last 10 + 30n/lambda generations (TolHistFun), or "
-       "those and all of the last generation's (TolFun), lie within this range"});
-  add({"optimizer.stagnation", "bool", boolean(c.stagnation), 0, 0, {}, "-",
-       "a run stops when its best and median returns stopped improving (Hansen 2009's Stagnation)"});
-  add({"optimizer.lambda", "int", num(c.lambda), 0, 100000, {}, "-",
-       "population size of the first run (0 = 4 + floor(3 ln n), 17 for 81 parameters)"});
-  add({"optimizer.sigma0", "double", num(c.sigma0), 0, 1000, {}, "-",
-       "initial step size (0 = policy.bound)"});
-  add({"optimizer.elitism", "bool", boolean(c.elitism), 0, 0, {}, "-",
-       "re-inject the best-ever candidate"});
-  add({"optimizer.active", "bool", boolean(c.active), 0, 0, {}, "-",
-       "active covariance update (aCMA)"});
-  add({"optimizer.bipop", "bool", boolean(c.bipop), 0, 0, {}, "-",
-       "BIPOP restarts (false = IPOP)"});
-  add({"optimizer.uncertainty_handling", "bool", boolean(c.uncertainty_handling), 0, 0, {}, "-",
-       "Hansen et al. 2009 uncertainty handling for the noisy rollout objective"});
-  add({"optimizer.keep_start", "bool", boolean(ps.keep_start_point), 0, 0, {}, "-",
-       "the best policy so far is the start and a candidate: each search starts from the policy of "
-       "the best real episode, evaluates it on the current model like any candidate and runs it again "
-       "unless a candidate beats it (as the reference's CMA-ES wrapper); false = the start only "
-       "centres the first CMA-ES run"});
-  add({"optimizer.trust_region", "bool", "", 0, 0, {}, "-",
-       "from episode 2 on, search only within r * policy.bound of the best real policy, with "
-       "CMA-ES's sigma0 scaled by r (r = 1: the whole box); r starts at 1, doubles after a new "
-       "policy beat the best real return and halves after one that did not (TuRBO's rule; "
-       "docs/architecture.md, \"The policy search and what drops does differently\"); empty = "
-       "the task's choice: " +
-           std::string(boolean(d.trust_region.enabled)) + " unless the task says otherwise"});
-  add({"optimizer.trust_region_min", "double", num(d.trust_region.min_radius), 1e-6, 1, {}, "-",
-       "optimizer.trust_region: the smallest radius r, a fraction of policy.bound"});
-  add({"optimizer.selection", "enum",
-       ps.selection == algo::PolicySelection::kBestSeen ? "best_seen" : "reevaluate", 0, 0,
-       {"reevaluate", "best_seen"}, "-",
-       "which evaluated policy is run: reevaluate = the best value (rollouts.statistic) when the "
-       "start, the best evaluated policies and each run's final mean are re-evaluated with many "
-       "rollouts (robust to lucky rollouts); best_seen = the best single evaluation (the paper's "
-       "reference)"});
-  add({"optimizer.reevaluation_rollouts", "int", "", 1, 100000, {}, "-",
-       "selection reevaluate: rollouts per re-evaluated policy, on common random numbers (empty = "
-       "the task's choice: " + num(ps.reevaluation.rollouts) +
-           " unless the task says otherwise)"});
-  add({"optimizer.reevaluation_candidates", "int", num(ps.reevaluation.candidates), 1, 10000, {},
-       "-",
-       "selection reevaluate: best distinct evaluated policies re-evaluated (besides the start and "
-       "the runs' final means)"});
-  add({"optimizer.prior_optimizations", "int", num(d.prior_optimizations), 1, 100, {}, "-",
-       "with a prior: successive optimizations on the prior alone for episode 1"});
-  add({"rollouts.count", "int", num(ps.rollouts.rollouts), 1, 10000, {}, "-",
-       "Monte-Carlo rollouts per policy evaluation, combined by rollouts.statistic"});
-  add({"rollouts.statistic", "enum",
-       ps.rollouts.statistic == rollout::ReturnStatistic::kMedian ? "median" : "mean", 0, 0,
-       {"mean", "median"}, "-",
-       "how a policy's rollout returns combine into its value on the model, in the search "
-       "(rollouts.count > 1) and in the re-evaluation of optimizer.selection reevaluate: mean = "
-       "the expected return (the paper's); median = robust to a minority of rollouts, e.g. rare "
-       "predicted falls (docs/architecture.md, \"The policy search and what drops does "
-       "differently\"). The reported predicted return is always the mean"});
-  add({"rollouts.clip", "double", num(ps.rollouts.clip), 0, 100, {}, "sigma",
-       "clip each predictive draw to mean +- clip * sigma (0 = no clipping)"});
-  add({"rollouts.batch", "int", num(ps.rollouts.batch), 1, 1024, {}, "-",
-       "rollouts advanced together through batched GP predictions"});
-  add({"rollouts.predicted", "int", num(d.predicted_rollouts), 1, 100000, {}, "-",
-       "rollouts used to report each episode's predicted return"});
-  return s;
-}
 
 [[noreturn]] void fail(const std::string& key, const std::string& value, const std::string& what) {
   throw ConfigError("config key '" + key + "' = '" + value + "': " + what);
@@ -401,7 +208,7 @@ std::vector<KeySpec> registered_base_keys(const Registry& registry) {
 }  // namespace
 
 const std::vector<KeySpec>& base_keys() {
-  static const std::vector<KeySpec> s = build_base_keys();
+  static const std::vector<KeySpec> s = base_key_table().specs();
   return s;
 }
 
@@ -409,7 +216,21 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
   std::vector<KeySpec> s = registered_base_keys(registry);
   for (const auto& a : registry.algorithm_names())
     for (auto& k : registry.algorithm(a).keys()) s.push_back(std::move(k));
-  for (auto& k : registry.task(task).keys()) s.push_back(std::move(k));
+  const TaskPlugin& t = registry.task(task);
+  for (auto& k : t.keys()) s.push_back(std::move(k));
+  // The task's defaults of shared keys, validated by their declarations.
+  for (const auto& [key, value] : t.shared_defaults()) {
+    const auto it =
+        std::find_if(s.begin(), s.end(), [&](const KeySpec& k) { return k.key == key; });
+    if (it == s.end())
+      throw ConfigError("task '" + task + "' sets the default of '" + key +
+                        "', which is no key of its schema");
+    try {
+      it->default_value = validate(*it, parse_yaml(value, "default of " + key));
+    } catch (const ConfigError& e) {
+      throw ConfigError("task '" + task + "', its default: " + e.what());
+    }
+  }
   return s;
 }
 
@@ -481,18 +302,9 @@ Settings load_settings_file(const Registry& registry, const std::string& path,
 void resolve_derived_defaults(const Registry& registry, Settings& settings) {
   const auto task = settings.find("task");
   if (task == settings.end() || !registry.has_task(task->second)) return;
-  const auto shared = registry.task(task->second).shared_defaults();
-  for (const auto& [key, fallback] : fallback_defaults()) {
-    const auto it = settings.find(key);
-    if (it == settings.end()) continue;
-    // Empty, or "auto" for an enum (no other value of these keys can be "auto").
-    if (!it->second.empty() && it->second != "auto") continue;
-    const auto t = shared.find(key);
-    it->second = t != shared.end() ? t->second : fallback;
-  }
-  // Other keys with an empty default (an algorithm's, e.g. ite.evaluations) take the task's value
-  // when it gives one; otherwise they stay empty and their algorithm applies its own default.
-  for (const auto& [key, value] : shared) {
+  // A key left empty whose default the task sets (e.g. an algorithm's key whose empty value
+  // means "the algorithm's default") takes the task's value.
+  for (const auto& [key, value] : registry.task(task->second).shared_defaults()) {
     const auto it = settings.find(key);
     if (it != settings.end() && it->second.empty()) it->second = value;
   }
@@ -607,10 +419,13 @@ std::string schema_markdown(const Registry& registry) {
     o << "\n## Task `" << t << "`\n\n" << p.description() << "\n\n";
     const auto shared = p.shared_defaults();
     if (!shared.empty()) {
+      const std::vector<KeySpec> keys = schema(registry, t);  // validates the task's defaults
       o << "Its defaults of shared keys:";
       bool first = true;
       for (const auto& [k, v] : shared) {
-        o << (first ? " " : ", ") << "`" << k << "` = `" << v << "`";
+        const auto it =
+            std::find_if(keys.begin(), keys.end(), [&](const KeySpec& s) { return s.key == k; });
+        o << (first ? " " : ", ") << "`" << k << "` = `" << it->default_value << "`";
         first = false;
       }
       o << ".\n\n";
@@ -631,6 +446,17 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
     }
   }
   return best.empty() ? "" : " (did you mean '" + best + "'?)";
+}
+
+std::string key_text(double v) { return fmt::format("{}", v); }
+std::string key_text(long long v) { return fmt::format("{}", v); }
+
+std::size_t choice_index(const Settings& settings, const std::string& key,
+                         const std::vector<std::string>& names) {
+  const std::string& v = settings.at(key);
+  const auto it = std::find(names.begin(), names.end(), v);
+  if (it == names.end()) fail(key, v, "allowed values: " + joined(names));
+  return static_cast<std::size_t>(it - names.begin());
 }
 
 // Settings hold validated text; these conversions fail only for settings that did not come from

@@ -12,72 +12,15 @@
 namespace drops::experiment {
 
 opt::CmaesOptions cmaes_options(const Settings& st) {
-  opt::CmaesOptions c = algo::policy_search_cmaes_defaults();
-  c.max_evaluations = get_int(st, "optimizer.max_evaluations");
-  c.max_restarts = static_cast<int>(get_int(st, "optimizer.restarts"));
-  c.max_run_evaluations = get_int(st, "optimizer.run_evaluations");
-  const std::string restart_from = st.at("optimizer.restart_from");
-  c.restart_start = restart_from == "random"  ? opt::CmaesRestartStart::kRandom
-                    : restart_from == "start" ? opt::CmaesRestartStart::kStart
-                                              : opt::CmaesRestartStart::kMixed;
-  c.tol_fun = c.tol_hist_fun = get_double(st, "optimizer.tol_fun");
-  c.stagnation = get_bool(st, "optimizer.stagnation");
-  c.lambda = static_cast<int>(get_int(st, "optimizer.lambda"));
-  c.sigma0 = get_double(st, "optimizer.sigma0");
-  c.elitism = get_bool(st, "optimizer.elitism");
-  c.active = get_bool(st, "optimizer.active");
-  c.bipop = get_bool(st, "optimizer.bipop");
-  c.uncertainty_handling = get_bool(st, "optimizer.uncertainty_handling");
-  return c;
+  return base_options(st).black_drops.search.cmaes;
 }
 
 algo::BlackDropsOptions black_drops_options(const Registry& registry, const Settings& st) {
-  algo::BlackDropsOptions a;
-  a.episodes = static_cast<int>(get_int(st, "episodes"));
-  a.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
-  const ModelVariant& variant = registry.model_variant(st.at("model.type"));
+  const BaseOptions base = base_options(st);
+  algo::BlackDropsOptions a = base.black_drops;
+  const ModelVariant& variant = registry.model_variant(base.model_type);
   a.model_factory = variant.factory;
   a.model_factory_uses_prior = variant.uses_prior;
-  auto& m = a.model;
-  m.rprop.max_iterations = static_cast<int>(get_int(st, "model.rprop.iterations"));
-  m.rprop.tolerance = get_double(st, "model.rprop.tolerance");
-  m.rprop.patience = static_cast<int>(get_int(st, "model.rprop.patience"));
-  m.rprop.penalty = st.at("model.rprop.penalty") == "on";
-  m.rprop.max_length_scale_ratio = get_double(st, "model.rprop.max_length_scale_ratio");
-  m.rprop.max_snr = get_double(st, "model.rprop.max_snr");
-  m.gp_mi.search = st.at("model.gp_mi.search") == "nested" ? model::GpMiSearch::kNested
-                                                           : model::GpMiSearch::kAlternating;
-  m.gp_mi.score = st.at("model.gp_mi.score") == "sum_log_likelihoods"
-                      ? model::GpMiScore::kSumOfLogLikelihoods
-                      : model::GpMiScore::kSumOfLikelihoods;
-  m.gp_mi.candidate_start = st.at("model.gp_mi.candidate_start") == "initial"
-                                ? model::GpMiCandidateStart::kInitial
-                                : model::GpMiCandidateStart::kBestSoFar;
-  m.gp_mi.max_evaluations = static_cast<int>(get_int(st, "model.gp_mi.max_evaluations"));
-  m.gp_mi.xtol_rel = m.gp_mi.ftol_rel = get_double(st, "model.gp_mi.tolerance");
-  m.gp_mi.rounds = static_cast<int>(get_int(st, "model.gp_mi.rounds"));
-  m.gp_mi.inner_rprop_iterations =
-      static_cast<int>(get_int(st, "model.gp_mi.inner_rprop_iterations"));
-  m.gp_mi.max_points = static_cast<int>(get_int(st, "model.gp_mi.max_points"));
-  m.mi.max_evaluations = static_cast<int>(get_int(st, "model.mi.max_evaluations"));
-  m.mi.xtol_rel = m.mi.ftol_rel = get_double(st, "model.mi.tolerance");
-  a.prior_optimizations = static_cast<int>(get_int(st, "optimizer.prior_optimizations"));
-  a.trust_region.enabled = get_bool(st, "optimizer.trust_region");
-  a.trust_region.min_radius = get_double(st, "optimizer.trust_region_min");
-  auto& p = a.search;
-  p.theta_bound = get_double(st, "policy.bound");
-  p.cmaes = cmaes_options(st);
-  p.keep_start_point = get_bool(st, "optimizer.keep_start");
-  p.selection = st.at("optimizer.selection") == "best_seen" ? algo::PolicySelection::kBestSeen
-                                                            : algo::PolicySelection::kReevaluate;
-  p.reevaluation.rollouts = static_cast<int>(get_int(st, "optimizer.reevaluation_rollouts"));
-  p.reevaluation.candidates = static_cast<int>(get_int(st, "optimizer.reevaluation_candidates"));
-  p.rollouts.rollouts = static_cast<int>(get_int(st, "rollouts.count"));
-  p.rollouts.clip = get_double(st, "rollouts.clip");
-  p.rollouts.statistic = st.at("rollouts.statistic") == "median" ? rollout::ReturnStatistic::kMedian
-                                                                 : rollout::ReturnStatistic::kMean;
-  p.rollouts.batch = static_cast<int>(get_int(st, "rollouts.batch"));
-  a.predicted_rollouts = static_cast<int>(get_int(st, "rollouts.predicted"));
   std::string why;
   if (!a.IsValid(&why)) throw ConfigError("config: " + why);
   return a;
@@ -183,19 +126,17 @@ class DirectPlugin final : public AlgorithmPlugin {
     // Its budget is optimizer.max_evaluations real episodes: an `episodes` other than the
     // default would be ignored, and on a physical robot that is thousands of episodes run
     // where a few were asked for.
-    const auto& base = base_keys();
-    const auto ep = std::find_if(base.begin(), base.end(),
-                                 [](const KeySpec& k) { return k.key == "episodes"; });
-    if (ep != base.end() && !same_setting_value(s.at("episodes"), ep->default_value))
+    const algo::BlackDropsOptions base = base_options(s).black_drops;
+    if (base.episodes != BaseOptions().black_drops.episodes)
       throw ConfigError("config key 'episodes' = '" + s.at("episodes") +
                         "': algorithm direct runs optimizer.max_evaluations real episodes (" +
                         s.at("optimizer.max_evaluations") +
                         " here), not `episodes`; set optimizer.max_evaluations=" +
                         s.at("episodes") + " instead");
     algo::DirectSearchOptions o;
-    o.seed = static_cast<std::uint64_t>(get_int(s, "seed"));
-    o.theta_bound = get_double(s, "policy.bound");
-    o.cmaes = cmaes_options(s);
+    o.seed = base.seed;
+    o.theta_bound = base.search.theta_bound;
+    o.cmaes = base.search.cmaes;
     const std::string start = s.at("direct.start");
     if (!start.empty()) o.start = read_start(start, setup.policy->param_dim(), o.theta_bound);
     std::string why;
@@ -343,14 +284,15 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
   e.settings = settings;
   resolve_derived_defaults(registry, e.settings);
   const Settings& st = e.settings;
-  e.task = st.at("task");
-  e.algorithm = st.at("algorithm");
+  const BaseOptions base = base_options(st);
+  e.task = base.task;
+  e.algorithm = base.algorithm;
   const TaskPlugin& task = registry.task(e.task);
   const AlgorithmPlugin& algorithm = registry.algorithm(e.algorithm);
-  e.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
-  e.threads = static_cast<int>(get_int(st, "threads"));
-  e.output = st.at("output");
-  e.name = st.at("name");
+  e.seed = base.black_drops.seed;
+  e.threads = base.threads;
+  e.output = base.output;
+  e.name = base.name;
   e.variant = algorithm.variant(st);
   e.setup = task.make(st);
   // Trajectory columns of a task that does not name them.

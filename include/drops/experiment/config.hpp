@@ -34,21 +34,23 @@ std::string did_you_mean(const std::string& word, const std::vector<std::string>
 
 /// The keys of the experiment itself (task, algorithm, seed, episodes, threads, output, name) and
 /// of the model-based policy search shared by the algorithms (model.*, policy.bound, optimizer.*,
-/// rollouts.*), in documentation order; defaults come from the algorithms' Options structs.
-/// Keys whose default depends on the task have an empty default here (see
-/// TaskPlugin::shared_defaults); model.type allows no value here (its values are a registry's
-/// model variants, see schema()). Thread-safe.
+/// rollouts.*), in documentation order: the specs of their declarations (base_key_table(),
+/// experiment.hpp), with the defaults of the options structs they set. model.type allows no value
+/// here (its values are a registry's model variants, see schema()). Thread-safe.
 const std::vector<KeySpec>& base_keys();
 
 /// The schema of an experiment on `task` (a registered task): base_keys() with model.type's
 /// values and help from the registry's model variants, every registered algorithm's keys, then
-/// the task's own keys. Throws ConfigError when the task is unknown.
+/// the task's own keys; the defaults that the task sets (TaskPlugin::shared_defaults) replace the
+/// keys' own, each validated by its key's spec. Throws ConfigError when the task is unknown, or
+/// sets the default of a key its schema lacks or a default its key refuses (naming the task, the
+/// key and the value).
 std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 
 /// Reads a YAML document (text) and applies key=value overrides (value parsed as YAML, so
 /// "prior.bounds.m1=[0.1, 1]" works). The task is the value of `task` after the overrides
 /// (default: the registry's default task); its schema (schema()) decides which keys exist. Fills
-/// the defaults and resolves the task-dependent ones (resolve_derived_defaults). Throws ConfigError
+/// the defaults (the task's schema's) and resolves the derived ones (resolve_derived_defaults). Throws ConfigError
 /// naming the key, the value and what is allowed for unknown keys, wrong types and out-of-range
 /// values. An empty text gives the defaults.
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
@@ -57,11 +59,11 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
 Settings load_settings_file(const Registry& registry, const std::string& path,
                             const std::vector<std::string>& overrides);
 
-/// Replaces the empty value of each key whose default depends on the task by the task's value
-/// (TaskPlugin::shared_defaults; base keys the task does not set get the base rule, algorithm
-/// keys stay empty), and optimizer.run_evaluations by a quarter of
-/// optimizer.max_evaluations, so that a value given explicitly and the same value derived compare
-/// equal. Leaves settings of an unknown task unchanged. Thread-safe.
+/// Replaces the empty value of a key whose default the task sets (TaskPlugin::shared_defaults,
+/// e.g. an algorithm key whose empty value means the algorithm's own default) by the task's, and
+/// an empty optimizer.run_evaluations by a quarter of optimizer.max_evaluations, so that a value
+/// given explicitly and the same value derived compare equal. Leaves settings of an unknown task
+/// unchanged. Thread-safe.
 void resolve_derived_defaults(const Registry& registry, Settings& settings);
 
 /// Settings as a nested YAML document in schema order (the resolved config written into each run

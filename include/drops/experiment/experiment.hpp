@@ -11,9 +11,34 @@
 #include "drops/algo/ite.hpp"
 #include "drops/algo/pilco.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
 
 namespace drops::experiment {
+
+/// The values of the base keys (base_keys()): the experiment's own and Algorithm 1's. Each field
+/// that a key sets is declared with that key once, in base_key_table(); the default member
+/// initialisers here (and those of the options structs inside) are the keys' defaults.
+struct BaseOptions {
+  std::string task;             ///< key task ("" = the registry's first task)
+  std::string algorithm;        ///< key algorithm ("" = the registry's first algorithm)
+  int threads = 0;              ///< key threads: worker threads, 0 = all hardware threads
+  std::string output = "runs";  ///< key output: parent directory of run directories
+  std::string name;             ///< key name: run directory name ("" = default_run_name)
+  /// Algorithm 1's options (keys seed, episodes, model.*, policy.bound, optimizer.*, rollouts.*);
+  /// the other algorithms take their seed, episodes, policy bound and CMA-ES settings from here.
+  algo::BlackDropsOptions black_drops;
+  /// Key model.type: a model variant registered in the Registry (its factory is looked up there).
+  std::string model_type = model::to_string(black_drops.model.type);
+};
+
+/// The declarations of the base keys, bound to BaseOptions' fields (base_keys() are its specs()).
+/// Thread-safe.
+const KeyTable<BaseOptions>& base_key_table();
+
+/// The base keys' values of validated settings (load_settings). Throws ConfigError naming the key
+/// for a value that does not convert. Thread-safe.
+BaseOptions base_options(const Settings& settings);
 
 /// The experiment described by settings (make_experiment).
 struct Experiment {

@@ -167,9 +167,10 @@ class TaskPlugin {
   /// The task's own keys (they exist only in experiments on this task). Each key must be new: no
   /// base or algorithm key, no other task's key.
   virtual std::vector<KeySpec> keys() const = 0;
-  /// Values of keys whose default depends on the task (those with an empty default: base keys
-  /// such as policy.bound, optimizer.max_evaluations, and algorithm keys such as
-  /// ite.evaluations); missing ones keep the base rule (or the algorithm's own default).
+  /// The task's defaults of keys it does not declare (base keys such as policy.bound or
+  /// model.gp_mi.score, algorithm keys such as ite.evaluations), as YAML text: they replace the
+  /// keys' declared defaults in the task's schema (schema()), validated by the keys' specs, and
+  /// are listed in its section of the Markdown. Keys not named keep their declared defaults.
   virtual std::map<std::string, std::string> shared_defaults() const { return {}; }
   /// Builds the task from validated settings. Throws ConfigError naming the key when the settings
   /// describe something impossible.

@@ -221,10 +221,9 @@ TEST(HexapodPlugin, ResolvedDerivedDefaultsEqualExplicitOnes) {
   EXPECT_EQ(hex.at("optimizer.max_evaluations"), "5000");
   EXPECT_EQ(hex.at("model.gp_mi.score"), "sum_log_likelihoods");
   EXPECT_EQ(hex.at("model.gp_mi.candidate_start"), "initial");
-  // Explicit values win over the task's, "auto" takes it.
-  const auto paper = experiment::load_settings(
-      registry(), "task: hexapod\n",
-      {"model.gp_mi.score=sum_likelihoods", "model.gp_mi.candidate_start=auto"});
+  // Explicit values win over the task's; a key left out takes the task's.
+  const auto paper = experiment::load_settings(registry(), "task: hexapod\n",
+                                               {"model.gp_mi.score=sum_likelihoods"});
   EXPECT_EQ(paper.at("model.gp_mi.score"), "sum_likelihoods");
   EXPECT_EQ(paper.at("model.gp_mi.candidate_start"), "initial");
   EXPECT_EQ(hex.at("optimizer.trust_region"), "true");

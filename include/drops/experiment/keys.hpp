@@ -1,0 +1,216 @@
+#pragma once
+/// \file Configuration keys declared once, beside the option field each one sets. A KeyTable of an
+/// options struct holds, per key, its name, help, unit, range or allowed values and the field it
+/// sets; the schema's KeySpec (specs(), with the default read from the struct's own default member
+/// initialisers) and the application of validated settings to the struct (apply()) both derive
+/// from that one declaration. Example (a double in [0, 1], an enum of named values):
+///
+///     KeyTable<MyOptions> t;
+///     t.add("my.rate", [](auto& o) -> auto& { return o.rate; })
+///         .range(0, 1).help("probability of ...");
+///     t.add("my.mode", [](auto& o) -> auto& { return o.mode; })
+///         .values({{"fast", Mode::kFast}, {"exact", Mode::kExact}}).help("...");
+///     t.specs();          // KeySpecs: "my.rate" double default "0.5" (MyOptions{}.rate) ...
+///     t.apply(settings, options);  // options.rate = 0.3 for settings {my.rate: "0.3"}
+
+#include <deque>
+#include <functional>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "drops/experiment/config.hpp"
+
+namespace drops::experiment {
+
+/// The named values of an enum key (the schema's allowed list and the parser), in the order shown.
+template <class T>
+using Choices = std::vector<std::pair<std::string, T>>;
+
+/// The shortest text that reads back as v ("0.01", "1e-12", "300"). Thread-safe.
+std::string key_text(double v);
+/// v in decimal. Thread-safe.
+std::string key_text(long long v);
+/// The value of an enum key's setting `key` among `names` (index into names). Throws ConfigError
+/// naming the key, the value and the allowed names when it is none of them.
+std::size_t choice_index(const Settings& settings, const std::string& key,
+                         const std::vector<std::string>& names);
+
+/// The keys of one options struct, each declared once with the field it sets. Declaring is not
+/// thread-safe; const members are.
+template <class Options>
+class KeyTable {
+  struct Row {
+    KeySpec spec;
+    bool derived = false;  // default "" (resolved elsewhere); an empty setting leaves the field
+    std::function<std::string(Options&)> text;  // the field's value as setting text (reads only)
+    std::function<void(const Settings&, Options&)> set;
+  };
+
+ public:
+  /// The declaration of one key, returned by add() to state its range, unit and help.
+  template <class T>
+  class Key {
+   public:
+    /// Numeric range [lo, hi] (inclusive) that validation enforces.
+    Key& range(double lo, double hi) {
+      row_->spec.min = lo;
+      row_->spec.max = hi;
+      return *this;
+    }
+    Key& unit(std::string u) {
+      row_->spec.unit = std::move(u);
+      return *this;
+    }
+    Key& help(std::string doc) {
+      row_->spec.doc = std::move(doc);
+      return *this;
+    }
+    /// Makes the key an enum of these named values (the allowed list, in this order, and how the
+    /// field is parsed and its default named).
+    Key& values(Choices<T> choices) {
+      *choices_ = std::move(choices);
+      row_->spec.type = "enum";
+      row_->spec.allowed.clear();
+      for (const auto& c : *choices_) row_->spec.allowed.push_back(c.first);
+      return *this;
+    }
+    /// The schema's type name when it is not the field's (e.g. "enum" for a string whose allowed
+    /// values a registry supplies).
+    Key& type(std::string name) {
+      row_->spec.type = std::move(name);
+      return *this;
+    }
+    /// The default is "" (derived from other settings, e.g. by resolve_derived_defaults, and said
+    /// so in the help); an empty setting leaves the field as it is.
+    Key& derived() {
+      row_->derived = true;
+      return *this;
+    }
+    /// The same value also goes to another field of the same type (e.g. two tolerances).
+    template <class Field>
+    Key& also(Field other) {
+      row_->set = [set = std::move(row_->set), field = field_, other](const Settings& s,
+                                                                       Options& o) {
+        set(s, o);
+        std::invoke(other, o) = std::invoke(field, o);
+      };
+      return *this;
+    }
+
+   private:
+    friend class KeyTable;
+    using Field = std::function<T&(Options&)>;
+    Key(Row* row, Field field, std::shared_ptr<Choices<T>> choices)
+        : row_(row), field_(std::move(field)), choices_(std::move(choices)) {}
+    Row* row_;
+    Field field_;
+    std::shared_ptr<Choices<T>> choices_;
+  };
+
+  /// Declares `key`, which sets the field that `field` returns (a callable Options& -> T&, e.g.
+  /// `[](auto& o) -> auto& { return o.model.rprop.tolerance; }`, or a pointer to member). T is
+  /// bool, an integer type, a floating-point type, std::string, or (with values()) any type. Its
+  /// default is the field of a default-constructed Options (specs()). A key's name is unique in a
+  /// schema: Registry refuses a task or algorithm that repeats one.
+  template <class FieldFn>
+  auto add(std::string key, FieldFn field) {
+    using T = std::remove_reference_t<std::invoke_result_t<FieldFn, Options&>>;
+    static_assert(!std::is_const_v<T>, "the field accessor must return a non-const reference");
+    auto choices = std::make_shared<Choices<T>>();
+    Row& row = rows_.emplace_back();
+    row.spec.key = key;
+    row.spec.unit = "-";
+    row.spec.type = type_name<T>();
+    typename Key<T>::Field get = [field](Options& o) -> T& { return std::invoke(field, o); };
+    row.text = [field, choices](Options& o) { return to_text<T>(std::invoke(field, o), *choices); };
+    row.set = [get, choices, key](const Settings& s, Options& o) {
+      get(o) = parse<T>(s, key, *choices);
+    };
+    return Key<T>(&row, std::move(get), std::move(choices));
+  }
+
+  /// Appends the keys of `sub`, a table of a struct that `part` (a callable Options& -> Sub&)
+  /// reaches inside Options; their defaults are then read from a default-constructed Options
+  /// (e.g. a CMA-ES table inside the policy search's options, with the policy search's defaults).
+  template <class Sub, class PartFn>
+  KeyTable& include(const KeyTable<Sub>& sub, PartFn part) {
+    for (const auto& r : sub.rows_) {
+      Row& row = rows_.emplace_back();
+      row.spec = r.spec;
+      row.derived = r.derived;
+      row.text = [text = r.text, part](Options& o) { return text(std::invoke(part, o)); };
+      row.set = [set = r.set, part](const Settings& s, Options& o) {
+        set(s, std::invoke(part, o));
+      };
+    }
+    return *this;
+  }
+
+  /// The schema of the keys, in declaration order, with the defaults of `defaults` (a derived key:
+  /// ""). Thread-safe.
+  std::vector<KeySpec> specs(const Options& defaults = Options()) const {
+    std::vector<KeySpec> out;
+    Options d = defaults;  // the field accessors take a non-const struct; they only read here
+    for (const auto& r : rows_) {
+      out.push_back(r.spec);
+      out.back().default_value = r.derived ? "" : r.text(d);
+    }
+    return out;
+  }
+
+  /// Sets every declared field of `options` from validated settings (load_settings: every key of
+  /// the table present). Throws ConfigError naming the key for a value that does not convert, and
+  /// std::out_of_range for a missing key. Thread-safe.
+  void apply(const Settings& settings, Options& options) const {
+    for (const auto& r : rows_)
+      if (!r.derived || !settings.at(r.spec.key).empty()) r.set(settings, options);
+  }
+
+ private:
+  template <class>
+  friend class KeyTable;
+
+  template <class T>
+  static std::string type_name() {
+    if constexpr (std::is_same_v<T, bool>) return "bool";
+    else if constexpr (std::is_integral_v<T>) return "int";
+    else if constexpr (std::is_floating_point_v<T>) return "double";
+    else if constexpr (std::is_same_v<T, std::string>) return "string";
+    else return "enum";  // values() names them
+  }
+
+  template <class T>
+  static std::string to_text(const T& v, const Choices<T>& choices) {
+    if (!choices.empty() || std::is_enum_v<T>) {
+      for (const auto& c : choices)
+        if (c.second == v) return c.first;
+      return "";  // a default that no name denotes (an enum declared without values())
+    }
+    if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+    else if constexpr (std::is_integral_v<T>) return key_text(static_cast<long long>(v));
+    else if constexpr (std::is_floating_point_v<T>) return key_text(static_cast<double>(v));
+    else if constexpr (std::is_same_v<T, std::string>) return v;
+    else return "";
+  }
+
+  template <class T>
+  static T parse(const Settings& s, const std::string& key, const Choices<T>& choices) {
+    if (!choices.empty() || std::is_enum_v<T>) {
+      std::vector<std::string> names;
+      for (const auto& c : choices) names.push_back(c.first);
+      return choices[choice_index(s, key, names)].second;
+    }
+    if constexpr (std::is_same_v<T, bool>) return get_bool(s, key);
+    else if constexpr (std::is_integral_v<T>) return static_cast<T>(get_int(s, key));
+    else if constexpr (std::is_floating_point_v<T>) return static_cast<T>(get_double(s, key));
+    else if constexpr (std::is_same_v<T, std::string>) return s.at(key);
+    else return choices.at(0).second;  // not reached: choice_index threw
+  }
+
+  std::deque<Row> rows_;  // a deque: add() hands out pointers to its rows
+};
+
+}  // namespace drops::experiment
