@@ -290,7 +290,7 @@ TEST(Config, EveryBaseKeySetsAFieldOfItsOwn) {
   const auto& table = experiment::base_key_table();
   const auto registered = experiment::schema(registry(), "pendubot");
   const experiment::Settings start = settings("");
-  // The base keys with the values of `start` as their defaults (a derived key's: "").
+  // The base keys with the values of `start` as their defaults (an optional key's: "").
   const std::vector<experiment::KeySpec> defaults = table.specs(experiment::base_options(start));
   int changed = 0;
   for (std::size_t i = 0; i < defaults.size(); ++i) {
@@ -306,7 +306,7 @@ TEST(Config, EveryBaseKeySetsAFieldOfItsOwn) {
         if (a != k.default_value) v = a;
     } else if (k.type == "string") {
       v = k.default_value + "x";
-    } else if (!k.default_value.empty()) {  // int or double (a derived key reads back as "")
+    } else if (!k.default_value.empty()) {  // int or double (an optional key reads back as "")
       ASSERT_LT(k.min, k.max) << k.key;
       const double d = std::stod(k.default_value);
       const double x = d != k.max ? k.max : k.min;
@@ -330,7 +330,7 @@ TEST(Config, EveryBaseKeySetsAFieldOfItsOwn) {
     }
     ++changed;
   }
-  EXPECT_GE(changed, static_cast<int>(defaults.size()) - 1);  // all but the derived one
+  EXPECT_GE(changed, static_cast<int>(defaults.size()) - 1);  // all but the optional one
 }
 
 // A task's default of a shared key goes through that key's declaration: it is the default of the

@@ -26,22 +26,76 @@ algo::BlackDropsOptions black_drops_options(const Registry& registry, const Sett
   return a;
 }
 
+namespace {
+
+/// The pilco.* keys, each declared with the PilcoOptions field it sets (keys of the "pilco"
+/// plugin; "pilco_prior" reads them too).
+KeyTable<algo::PilcoOptions> make_pilco_key_table() {
+  KeyTable<algo::PilcoOptions> t;
+  t.add("pilco.cost_width", [](auto& o) -> auto& { return o.cost_width; })
+      .optional()
+      .range(1e-6, 1e6)
+      .unit("task distance")
+      .help("algorithms pilco, pilco_prior: width w of the saturating cost 1 - exp(-d^2 / (2 "
+            "w^2)) (empty = the task's reward width, so that PILCO optimises the task's expected "
+            "return: e.g. 0.5 m; pilco-matlab's double-pendulum swing-up uses 0.25)");
+  t.add("pilco.centres", [](auto& o) -> auto& { return o.centres; })
+      .range(1, 100000)
+      .help("centres (pseudo-inputs) of the RBF policy (paper §V-A, pilco-matlab: 200)");
+  t.add("pilco.random_rollouts", [](auto& o) -> auto& { return o.random_rollouts; })
+      .range(1, 1000)
+      .help("episodes with uniformly random actions before the first learned policy "
+            "(pilco-matlab: 1); for pilco_prior they begin the simulation phase");
+  t.add("pilco.sim_episodes", [](auto& o) -> auto& { return o.sim_episodes; })
+      .range(2, 100000)
+      .help("algorithm pilco_prior: PILCO episodes on the simulator prior before the real ones, "
+            "the random ones included (paper §V-A: 40); no interaction time");
+  t.add("pilco.policy_evaluations", [](auto& o) -> auto& { return o.lbfgs.max_evaluations; })
+      .range(1, 100000000)
+      .help("L-BFGS evaluations of J(theta) and its gradient per policy optimisation "
+            "(pilco-matlab: 150 line searches of BFGS)");
+  t.add("pilco.policy_tolerance", [](auto& o) -> auto& { return o.lbfgs.ftol_rel; })
+      .also([](auto& o) -> auto& { return o.lbfgs.xtol_rel; })
+      .range(0, 1)
+      .help("L-BFGS stops when an iteration changes J or theta by less than this, relatively");
+  t.add("pilco.discount", [](auto& o) -> auto& { return o.discount; })
+      .range(1e-6, 1)
+      .help("discount gamma of J = sum_t gamma^t E[c(x_t)] (pilco-matlab: 1)");
+  t.add("pilco.rprop_iterations", [](auto& o) -> auto& { return o.rprop.max_iterations; })
+      .range(1, 100000)
+      .help("Rprop iterations per dynamics GP and episode (warm-started; pilco-matlab: 300 line "
+            "searches of BFGS)");
+  t.add("pilco.max_snr", [](auto& o) -> auto& { return o.rprop.max_snr; })
+      .range(1.001, 1e9)
+      .help("soft walls of the dynamics GPs: signal-to-noise ratio at most this (pilco-matlab's "
+            "train.m: 1000)");
+  t.add("pilco.max_length_scale_ratio",
+        [](auto& o) -> auto& { return o.rprop.max_length_scale_ratio; })
+      .range(1.001, 1e6)
+      .help("soft walls: length scales within this factor of the input's spread (pilco-matlab: "
+            "100)");
+  t.add("pilco.max_points", [](auto& o) -> auto& { return o.max_points; })
+      .range(1, 1000000)
+      .help("beyond this many transitions the dynamics GPs are sparse (FITC with this many "
+            "inducing inputs, a random subset of the data; pilco-matlab's double-pendulum "
+            "swing-up: 300)");
+  return t;
+}
+
+const KeyTable<algo::PilcoOptions>& pilco_key_table() {
+  static const KeyTable<algo::PilcoOptions> t = make_pilco_key_table();
+  return t;
+}
+
+}  // namespace
+
 algo::PilcoOptions pilco_options(const Settings& st, bool with_prior) {
+  const algo::BlackDropsOptions base = base_options(st).black_drops;
   algo::PilcoOptions o;
   o.with_prior = with_prior;
-  o.episodes = static_cast<int>(get_int(st, "episodes"));
-  o.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
-  o.random_rollouts = static_cast<int>(get_int(st, "pilco.random_rollouts"));
-  o.sim_episodes = static_cast<int>(get_int(st, "pilco.sim_episodes"));
-  o.centres = static_cast<int>(get_int(st, "pilco.centres"));
-  o.cost_width = st.at("pilco.cost_width").empty() ? 0.0 : get_double(st, "pilco.cost_width");
-  o.discount = get_double(st, "pilco.discount");
-  o.lbfgs.max_evaluations = static_cast<int>(get_int(st, "pilco.policy_evaluations"));
-  o.lbfgs.ftol_rel = o.lbfgs.xtol_rel = get_double(st, "pilco.policy_tolerance");
-  o.rprop.max_iterations = static_cast<int>(get_int(st, "pilco.rprop_iterations"));
-  o.rprop.max_snr = get_double(st, "pilco.max_snr");
-  o.rprop.max_length_scale_ratio = get_double(st, "pilco.max_length_scale_ratio");
-  o.max_points = static_cast<int>(get_int(st, "pilco.max_points"));
+  o.episodes = base.episodes;
+  o.seed = base.seed;
+  pilco_key_table().apply(st, o);
   std::string why;
   if (!o.IsValid(&why)) throw ConfigError("config: PILCO: " + why);
   return o;
@@ -111,12 +165,7 @@ class DirectPlugin final : public AlgorithmPlugin {
            "budget is optimizer.max_evaluations real episodes; `episodes` must stay at its "
            "default";
   }
-  std::vector<KeySpec> keys() const override {
-    return {{"direct.start", "string", "", 0, 0, {}, "-",
-             "algorithm direct: a file of policy parameters, one per line (e.g. a run's "
-             "episodes/NNN/policy.csv), evaluated first and kept unless beaten (empty = the "
-             "centre of the box, not evaluated on its own)"}};
-  }
+  std::vector<KeySpec> keys() const override { return key_table().specs(); }
   VariantStyle variant_style(const Settings&) const override {
     return {"CMA-ES on the real system (no model)", 7, "#8c564b"};
   }
@@ -137,14 +186,31 @@ class DirectPlugin final : public AlgorithmPlugin {
     o.seed = base.seed;
     o.theta_bound = base.search.theta_bound;
     o.cmaes = base.search.cmaes;
-    const std::string start = s.at("direct.start");
-    if (!start.empty()) o.start = read_start(start, setup.policy->param_dim(), o.theta_bound);
+    DirectKeys own;
+    key_table().apply(s, own);
+    if (!own.start.empty())
+      o.start = read_start(own.start, setup.policy->param_dim(), o.theta_bound);
     std::string why;
     if (!o.IsValid(&why)) throw ConfigError("config: " + why);
     return std::make_unique<algo::DirectSearch>(o);
   }
 
  private:
+  /// The values of the direct search's own keys.
+  struct DirectKeys {
+    std::string start;  ///< direct.start: a file of theta0 ("" = none)
+  };
+  static const KeyTable<DirectKeys>& key_table() {
+    static const KeyTable<DirectKeys> t = [] {
+      KeyTable<DirectKeys> k;
+      k.add("direct.start", &DirectKeys::start)
+          .help("algorithm direct: a file of policy parameters, one per line (e.g. a run's "
+                "episodes/NNN/policy.csv), evaluated first and kept unless beaten (empty = the "
+                "centre of the box, not evaluated on its own)");
+      return k;
+    }();
+    return t;
+  }
   /// theta0 from a file of one value per line. Throws ConfigError naming the file and line.
   static VectorXd read_start(const std::string& path, int n, double bound) {
     const std::string key = "config key 'direct.start' = '" + path + "': ";
@@ -192,45 +258,7 @@ class PilcoPlugin final : public AlgorithmPlugin {
   }
   std::vector<KeySpec> keys() const override {
     if (with_prior_) return {};
-    const algo::PilcoOptions d;
-    auto num = [](double v) {
-      std::ostringstream o;
-      o << v;
-      return o.str();
-    };
-    return {
-        {"pilco.cost_width", "double", "", 1e-6, 1e6, {}, "task distance",
-         "algorithms pilco, pilco_prior: width w of the saturating cost 1 - exp(-d^2 / (2 w^2)) "
-         "(empty = the task's reward width, so that PILCO optimises the task's expected return: "
-         "e.g. 0.5 m; pilco-matlab's double-pendulum swing-up uses 0.25)"},
-        {"pilco.centres", "int", num(d.centres), 1, 100000, {}, "-",
-         "centres (pseudo-inputs) of the RBF policy (paper §V-A, pilco-matlab: 200)"},
-        {"pilco.random_rollouts", "int", num(d.random_rollouts), 1, 1000, {}, "-",
-         "episodes with uniformly random actions before the first learned policy (pilco-matlab: "
-         "1); for pilco_prior they begin the simulation phase"},
-        {"pilco.sim_episodes", "int", num(d.sim_episodes), 2, 100000, {}, "-",
-         "algorithm pilco_prior: PILCO episodes on the simulator prior before the real ones, the "
-         "random ones included (paper §V-A: 40); no interaction time"},
-        {"pilco.policy_evaluations", "int", num(d.lbfgs.max_evaluations), 1, 100000000, {}, "-",
-         "L-BFGS evaluations of J(theta) and its gradient per policy optimisation (pilco-matlab: "
-         "150 line searches of BFGS)"},
-        {"pilco.policy_tolerance", "double", num(d.lbfgs.ftol_rel), 0, 1, {}, "-",
-         "L-BFGS stops when an iteration changes J or theta by less than this, relatively"},
-        {"pilco.discount", "double", num(d.discount), 1e-6, 1, {}, "-",
-         "discount gamma of J = sum_t gamma^t E[c(x_t)] (pilco-matlab: 1)"},
-        {"pilco.rprop_iterations", "int", num(d.rprop.max_iterations), 1, 100000, {}, "-",
-         "Rprop iterations per dynamics GP and episode (warm-started; pilco-matlab: 300 line "
-         "searches of BFGS)"},
-        {"pilco.max_snr", "double", num(d.rprop.max_snr), 1.001, 1e9, {}, "-",
-         "soft walls of the dynamics GPs: signal-to-noise ratio at most this (pilco-matlab's "
-         "train.m: 1000)"},
-        {"pilco.max_length_scale_ratio", "double", num(d.rprop.max_length_scale_ratio), 1.001,
-         1e6, {}, "-",
-         "soft walls: length scales within this factor of the input's spread (pilco-matlab: 100)"},
-        {"pilco.max_points", "int", num(d.max_points), 1, 1000000, {}, "-",
-         "beyond this many transitions the dynamics GPs are sparse (FITC with this many inducing "
-         "inputs, a random subset of the data; pilco-matlab's double-pendulum swing-up: 300)"},
-    };
+    return pilco_key_table().specs();
   }
   VariantStyle variant_style(const Settings&) const override {
     return with_prior_ ? VariantStyle{"PILCO with priors", 5, "#17becf"}

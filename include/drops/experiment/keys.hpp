@@ -44,7 +44,7 @@ template <class Options>
 class KeyTable {
   struct Row {
     KeySpec spec;
-    bool derived = false;  // default "" (resolved elsewhere); an empty setting leaves the field
+    bool optional = false;  // default ""; an empty setting leaves the field as it is
     std::function<std::string(Options&)> text;  // the field's value as setting text (reads only)
     std::function<void(const Settings&, Options&)> set;
   };
@@ -83,10 +83,11 @@ class KeyTable {
       row_->spec.type = std::move(name);
       return *this;
     }
-    /// The default is "" (derived from other settings, e.g. by resolve_derived_defaults, and said
-    /// so in the help); an empty setting leaves the field as it is.
-    Key& derived() {
-      row_->derived = true;
+    /// The default is "" and the help says what an empty value means (derived from other
+    /// settings, e.g. by resolve_derived_defaults, or the field's own default): an empty setting
+    /// leaves the field as it is.
+    Key& optional() {
+      row_->optional = true;
       return *this;
     }
     /// The same value also goes to another field of the same type (e.g. two tolerances).
@@ -140,7 +141,7 @@ class KeyTable {
     for (const auto& r : sub.rows_) {
       Row& row = rows_.emplace_back();
       row.spec = r.spec;
-      row.derived = r.derived;
+      row.optional = r.optional;
       row.text = [text = r.text, part](Options& o) { return text(std::invoke(part, o)); };
       row.set = [set = r.set, part](const Settings& s, Options& o) {
         set(s, std::invoke(part, o));
@@ -149,14 +150,14 @@ class KeyTable {
     return *this;
   }
 
-  /// The schema of the keys, in declaration order, with the defaults of `defaults` (a derived key:
-  /// ""). Thread-safe.
+  /// The schema of the keys, in declaration order, with the defaults of `defaults` (an optional
+  /// key's: ""). Thread-safe.
   std::vector<KeySpec> specs(const Options& defaults = Options()) const {
     std::vector<KeySpec> out;
     Options d = defaults;  // the field accessors take a non-const struct; they only read here
     for (const auto& r : rows_) {
       out.push_back(r.spec);
-      out.back().default_value = r.derived ? "" : r.text(d);
+      out.back().default_value = r.optional ? "" : r.text(d);
     }
     return out;
   }
@@ -166,7 +167,7 @@ class KeyTable {
   /// std::out_of_range for a missing key. Thread-safe.
   void apply(const Settings& settings, Options& options) const {
     for (const auto& r : rows_)
-      if (!r.derived || !settings.at(r.spec.key).empty()) r.set(settings, options);
+      if (!r.optional || !settings.at(r.spec.key).empty()) r.set(settings, options);
   }
 
  private:
