@@ -17,88 +17,137 @@ namespace drops::experiment {
 namespace fs = std::filesystem;
 namespace {
 
-std::string num(double v) { return fmt::format("{}", v); }
+/// The values of the ite.* keys: IT&E's options and what the plugin does with the others.
+struct IteKeys {
+  algo::IteOptions ite;       ///< (episodes, seed, theta_bound, behaviour and bins set elsewhere)
+  std::string archive;        ///< ite.archive: an archive file to adapt with ("" = build one)
+  std::string archive_cache;  ///< ite.archive_cache: a directory of archives ("" = none)
+  int bins = 0;               ///< ite.bins: cells per descriptor dimension (0 = the task's grid)
+  double checkpoint_minutes = ite.checkpoint_seconds / 60;  ///< ite.checkpoint_minutes
+};
 
-/// The ite.* keys that decide the archive MAP-Elites builds (the rest only the adaptation).
-const std::vector<std::string> kArchiveKeys = {
-    "ite.evaluations", "ite.batch",     "ite.initial_population", "ite.bins",
-    "ite.mutation",    "ite.mutation_rate", "ite.polynomial_eta", "ite.gaussian_sigma",
-    "ite.grid_levels", "ite.crossover_rate", "ite.insertion",     "ite.epsilon"};
+/// The ite.* keys that decide the archive MAP-Elites builds (the others only the adaptation, or
+/// where the archive comes from).
+KeyTable<IteKeys> make_archive_key_table() {
+  KeyTable<IteKeys> t;
+  const auto me = [](auto& k) -> auto& { return k.ite.map_elites; };
+  t.add("ite.evaluations", [=](auto& k) -> auto& { return me(k).max_evaluations; })
+      .range(1, 1e10)
+      .help("algorithm ite: MAP-Elites' budget of prior episodes");
+  t.add("ite.batch", [=](auto& k) -> auto& { return me(k).batch_size; })
+      .range(2, 1e6)
+      .help("algorithm ite: MAP-Elites' offspring per generation (batch_size / 2 pairs of "
+            "parents), evaluated in parallel");
+  t.add("ite.initial_population", [=](auto& k) -> auto& { return me(k).initial_population; })
+      .range(1, 1e7)
+      .help("algorithm ite: random individuals evaluated first");
+  t.add("ite.bins", &IteKeys::bins)
+      .optional()
+      .range(1, 1000)
+      .help("algorithm ite: cells per descriptor dimension (empty = the task's grid)");
+  t.add("ite.mutation", [=](auto& k) -> auto& { return me(k).mutation; })
+      .values({{"polynomial", ite::Mutation::kPolynomial},
+               {"gaussian", ite::Mutation::kGaussian},
+               {"resample", ite::Mutation::kResample}})
+      .help("algorithm ite: MAP-Elites' mutation: polynomial (Deb's bounded), gaussian, or "
+            "resample (genes on a grid of ite.grid_levels values, a mutated gene re-drawn, as the "
+            "reference archive of Cully et al. 2015)");
+  t.add("ite.mutation_rate", [=](auto& k) -> auto& { return me(k).mutation_rate; })
+      .range(0, 1)
+      .help("algorithm ite: probability that each gene of an offspring mutates");
+  t.add("ite.polynomial_eta", [=](auto& k) -> auto& { return me(k).polynomial_eta; })
+      .range(1e-3, 1e6)
+      .help("algorithm ite: distribution index of the polynomial mutation (larger = smaller "
+            "steps)");
+  t.add("ite.gaussian_sigma", [=](auto& k) -> auto& { return me(k).gaussian_sigma; })
+      .range(1e-6, 10)
+      .help("algorithm ite: standard deviation of the gaussian mutation, as a fraction of the "
+            "box");
+  t.add("ite.grid_levels", [=](auto& k) -> auto& { return me(k).grid_levels; })
+      .range(2, 1e6)
+      .help("algorithm ite: values per gene of the resample mutation");
+  t.add("ite.crossover_rate", [=](auto& k) -> auto& { return me(k).crossover_rate; })
+      .range(0, 1)
+      .help("algorithm ite: probability that a pair of parents is crossed (SBX) before mutation");
+  t.add("ite.insertion", [=](auto& k) -> auto& { return me(k).insertion; })
+      .values({{"strict", ite::InsertionRule::kStrict}, {"epsilon", ite::InsertionRule::kEpsilon}})
+      .help("algorithm ite: an offspring replaces a cell's elite when strictly fitter, or by the "
+            "reference's epsilon rule (ite.epsilon)");
+  t.add("ite.epsilon", [=](auto& k) -> auto& { return me(k).epsilon; })
+      .range(0, 1e9)
+      .unit("return")
+      .help("algorithm ite: epsilon of the insertion rule epsilon, in units of the return");
+  return t;
+}
 
-std::vector<KeySpec> ite_keys() {
-  const ite::MapElitesOptions me;
-  const ite::MboaOptions mb;
-  const algo::IteOptions io;
-  std::vector<KeySpec> s;
-  auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
-  add({"ite.archive", "string", "", 0, 0, {}, "-",
-       "algorithm ite: an archive file to adapt with (e.g. a run's archive.csv) instead of "
-       "building one with MAP-Elites; its grid replaces ite.bins"});
-  add({"ite.archive_cache", "string", "", 0, 0, {}, "-",
-       "algorithm ite: a directory of archives shared by runs whose settings differ only in keys "
-       "that do not change the archive (seed, task keys of the real system such as a damage, the "
-       "adaptation's keys): a run loads the archive it would build when one is there, and puts "
-       "the one it built there (empty = none)"});
-  add({"ite.evaluations", "int", "", 1, 1e10, {}, "-",
-       "algorithm ite: MAP-Elites' budget of prior episodes (empty = the task's value, else " +
-           num(static_cast<double>(me.max_evaluations)) + ")"});
-  add({"ite.batch", "int", num(me.batch_size), 2, 1e6, {}, "-",
-       "algorithm ite: MAP-Elites' offspring per generation (batch_size / 2 pairs of parents), "
-       "evaluated in parallel"});
-  add({"ite.initial_population", "int", num(me.initial_population), 1, 1e7, {}, "-",
-       "algorithm ite: random individuals evaluated first"});
-  add({"ite.bins", "int", "", 1, 1000, {}, "-",
-       "algorithm ite: cells per descriptor dimension (empty = the task's grid)"});
-  add({"ite.mutation", "enum", "", 0, 0, {"polynomial", "gaussian", "resample"}, "-",
-       "algorithm ite: MAP-Elites' mutation: polynomial (Deb's bounded), gaussian, or resample "
-       "(genes on a grid of ite.grid_levels values, a mutated gene re-drawn, as the reference "
-       "archive of Cully et al. 2015) (empty = the task's, else polynomial)"});
-  add({"ite.mutation_rate", "double", "", 0, 1, {}, "-",
-       "algorithm ite: probability that each gene of an offspring mutates (empty = the task's, "
-       "else " + num(me.mutation_rate) + ")"});
-  add({"ite.polynomial_eta", "double", num(me.polynomial_eta), 1e-3, 1e6, {}, "-",
-       "algorithm ite: distribution index of the polynomial mutation (larger = smaller steps)"});
-  add({"ite.gaussian_sigma", "double", num(me.gaussian_sigma), 1e-6, 10, {}, "-",
-       "algorithm ite: standard deviation of the gaussian mutation, as a fraction of the box"});
-  add({"ite.grid_levels", "int", num(me.grid_levels), 2, 1e6, {}, "-",
-       "algorithm ite: values per gene of the resample mutation"});
-  add({"ite.crossover_rate", "double", num(me.crossover_rate), 0, 1, {}, "-",
-       "algorithm ite: probability that a pair of parents is crossed (SBX) before mutation"});
-  add({"ite.insertion", "enum", "strict", 0, 0, {"strict", "epsilon"}, "-",
-       "algorithm ite: an offspring replaces a cell's elite when strictly fitter, or by the "
-       "reference's epsilon rule (ite.epsilon)"});
-  add({"ite.epsilon", "double", num(me.epsilon), 0, 1e9, {}, "return",
-       "algorithm ite: epsilon of the insertion rule epsilon, in units of the return"});
-  add({"ite.length_scale", "double", num(mb.length_scale), 1e-6, 100, {}, "-",
-       "algorithm ite: M-BOA's Matern 5/2 length scale l in descriptor units ([0, 1] per "
-       "dimension)"});
-  add({"ite.signal_variance", "double", num(mb.signal_variance), 1e-12, 1e12, {}, "-",
-       "algorithm ite: M-BOA's kernel signal variance sigma_f^2, on the scaled performance"});
-  add({"ite.noise_variance", "double", num(mb.noise_variance), 1e-14, 1e12, {}, "-",
-       "algorithm ite: M-BOA's observation-noise variance sigma_n^2, on the scaled performance"});
-  add({"ite.kappa", "double", num(mb.kappa), 0, 1e6, {}, "-",
-       "algorithm ite: M-BOA's UCB exploration weight kappa (UCB = mu + kappa sigma)"});
-  add({"ite.stop_ratio", "double", num(mb.stop_ratio), 0, 1, {}, "-",
-       "algorithm ite: stop when the best trial >= stop_ratio x the highest predicted mean "
-       "(0 = only the trial budget, `episodes`)"});
-  add({"ite.cell_points", "enum", "descriptor", 0, 0, {"descriptor", "centre"}, "-",
-       "algorithm ite: where M-BOA's kernel places each cell: its elite's descriptor (the "
-       "reference) or the cell centre"});
-  add({"ite.performance_scale", "double", "", 1e-9, 1e9, {}, "1/return",
-       "algorithm ite: M-BOA works on performance = scale x return (prior mean: scale x archive "
-       "fitness), so that the kernel and kappa keep the reference's scale (empty = the task's, "
-       "else " + num(io.performance_scale) + ")"});
-  add({"ite.observation_floor", "double", "", -1e12, 1e12, {}, "performance",
-       "algorithm ite: M-BOA observes max(floor, performance) of each trial, as the reference "
-       "(Cully et al. 2015) sets negative covered distances to 0 (empty = the task's, else no floor; the "
-       "recorded returns are not changed)"});
-  add({"ite.after_stop", "enum", "repeat_best", 0, 0, {"repeat_best", "end"}, "-",
-       "algorithm ite: once the stopping rule fired, run the best tested policy in each "
-       "remaining episode (repeat_best: every run has `episodes` episodes), or end the run"});
-  add({"ite.checkpoint_minutes", "double", num(io.checkpoint_seconds / 60), 0, 1e6, {}, "min",
-       "algorithm ite: the archive in progress is saved (archive.csv, checkpoint.json) at most "
-       "this often during MAP-Elites, so that an interrupted generation resumes"});
-  return s;
+/// Every ite.* key, each declared with the field of IteKeys it sets, in documentation order.
+KeyTable<IteKeys> make_ite_key_table() {
+  KeyTable<IteKeys> t;
+  t.add("ite.archive", &IteKeys::archive)
+      .help("algorithm ite: an archive file to adapt with (e.g. a run's archive.csv) instead of "
+            "building one with MAP-Elites; its grid replaces ite.bins");
+  t.add("ite.archive_cache", &IteKeys::archive_cache)
+      .help("algorithm ite: a directory of archives shared by runs whose settings differ only in "
+            "keys that do not change the archive (seed, task keys of the real system such as a "
+            "damage, the adaptation's keys): a run loads the archive it would build when one is "
+            "there, and puts the one it built there (empty = none)");
+  t.include(make_archive_key_table(), [](auto& k) -> auto& { return k; });
+  const auto mb = [](auto& k) -> auto& { return k.ite.mboa; };
+  t.add("ite.length_scale", [=](auto& k) -> auto& { return mb(k).length_scale; })
+      .range(1e-6, 100)
+      .help("algorithm ite: M-BOA's Matern 5/2 length scale l in descriptor units ([0, 1] per "
+            "dimension)");
+  t.add("ite.signal_variance", [=](auto& k) -> auto& { return mb(k).signal_variance; })
+      .range(1e-12, 1e12)
+      .help("algorithm ite: M-BOA's kernel signal variance sigma_f^2, on the scaled performance");
+  t.add("ite.noise_variance", [=](auto& k) -> auto& { return mb(k).noise_variance; })
+      .range(1e-14, 1e12)
+      .help("algorithm ite: M-BOA's observation-noise variance sigma_n^2, on the scaled "
+            "performance");
+  t.add("ite.kappa", [=](auto& k) -> auto& { return mb(k).kappa; })
+      .range(0, 1e6)
+      .help("algorithm ite: M-BOA's UCB exploration weight kappa (UCB = mu + kappa sigma)");
+  t.add("ite.stop_ratio", [=](auto& k) -> auto& { return mb(k).stop_ratio; })
+      .range(0, 1)
+      .help("algorithm ite: stop when the best trial >= stop_ratio x the highest predicted mean "
+            "(0 = only the trial budget, `episodes`)");
+  t.add("ite.cell_points", [=](auto& k) -> auto& { return mb(k).use_cell_centres; })
+      .values({{"descriptor", false}, {"centre", true}})
+      .help("algorithm ite: where M-BOA's kernel places each cell: its elite's descriptor (the "
+            "reference) or the cell centre");
+  t.add("ite.performance_scale", [](auto& k) -> auto& { return k.ite.performance_scale; })
+      .range(1e-9, 1e9)
+      .unit("1/return")
+      .help("algorithm ite: M-BOA works on performance = scale x return (prior mean: scale x "
+            "archive fitness), so that the kernel and kappa keep the reference's scale");
+  t.add("ite.observation_floor", [](auto& k) -> auto& { return k.ite.observation_floor; })
+      .optional()
+      .range(-1e12, 1e12)
+      .unit("performance")
+      .help("algorithm ite: M-BOA observes max(floor, performance) of each trial, as the "
+            "reference (Cully et al. 2015) sets negative covered distances to 0 (empty = no "
+            "floor; the recorded returns are not changed)");
+  t.add("ite.after_stop", [](auto& k) -> auto& { return k.ite.after_stop; })
+      .values({{"repeat_best", algo::IteAfterStop::kRepeatBest}, {"end", algo::IteAfterStop::kEnd}})
+      .help("algorithm ite: once the stopping rule fired, run the best tested policy in each "
+            "remaining episode (repeat_best: every run has `episodes` episodes), or end the run");
+  t.add("ite.checkpoint_minutes", &IteKeys::checkpoint_minutes)
+      .range(0, 1e6)
+      .unit("min")
+      .help("algorithm ite: the archive in progress is saved (archive.csv, checkpoint.json) at "
+            "most this often during MAP-Elites, so that an interrupted generation resumes");
+  return t;
+}
+
+const KeyTable<IteKeys>& ite_key_table() {
+  static const KeyTable<IteKeys> t = make_ite_key_table();
+  return t;
+}
+
+IteKeys ite_keys(const Settings& s) {
+  IteKeys k;
+  ite_key_table().apply(s, k);
+  return k;
 }
 
 /// FNV-1a, 64 bits: the archive cache's key of a settings text (not for security).
@@ -118,8 +167,10 @@ fs::path cache_file(const Settings& s, const TaskSetup& setup) {
   std::set<std::string> ignored(setup.real_system_keys.begin(), setup.real_system_keys.end());
   for (const auto& k : base_keys())
     if (k.key != "task" && k.key != "seed" && k.key != "policy.bound") ignored.insert(k.key);
-  for (const auto& k : ite_keys())
-    if (std::find(kArchiveKeys.begin(), kArchiveKeys.end(), k.key) == kArchiveKeys.end())
+  static const std::vector<KeySpec> archive_keys = make_archive_key_table().specs();
+  for (const auto& k : ite_key_table().specs())
+    if (std::none_of(archive_keys.begin(), archive_keys.end(),
+                     [&](const KeySpec& a) { return a.key == k.key; }))
       ignored.insert(k.key);
   std::string text;
   for (const auto& [k, v] : s)
@@ -127,7 +178,7 @@ fs::path cache_file(const Settings& s, const TaskSetup& setup) {
   std::string prior = setup.prior_label;
   for (char& c : prior)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
-  return fs::path(s.at("ite.archive_cache")) /
+  return fs::path(ite_keys(s).archive_cache) /
          fmt::format("{}-{}-seed{}-{:016x}.csv", s.at("task"), prior, s.at("seed"), fnv1a(text));
 }
 
@@ -171,13 +222,13 @@ class ItePlugin final : public AlgorithmPlugin {
            "M-BOA on the real system, one episode per trial, until its stopping rule or "
            "`episodes` trials (docs/ite.md). Needs a task with a behaviour descriptor";
   }
-  std::vector<KeySpec> keys() const override { return ite_keys(); }
+  std::vector<KeySpec> keys() const override { return ite_key_table().specs(); }
   std::string variant(const Settings&) const override { return "ite"; }
   VariantStyle variant_style(const Settings&) const override { return {"IT&E", 4, "#9467bd"}; }
   bool uses_prior(const Settings&) const override { return true; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
     algo::IteOptions o = ite_options(s, setup);
-    const std::string cache = s.at("ite.archive_cache");
+    const std::string cache = ite_keys(s).archive_cache;
     if (cache.empty() || o.archive) return std::make_unique<algo::Ite>(o);
     const fs::path file = cache_file(s, setup);
     if (fs::exists(file)) {
@@ -199,50 +250,22 @@ algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
     throw ConfigError("config key 'algorithm' = 'ite': the task '" + task +
                       "' has no behaviour descriptor for IT&E's archive; choose another "
                       "algorithm or give the task one (TaskSetup::behaviour)");
-  algo::IteOptions o;
-  o.episodes = static_cast<int>(get_int(s, "episodes"));
-  o.seed = static_cast<std::uint64_t>(get_int(s, "seed"));
-  o.theta_bound = get_double(s, "policy.bound");
+  const IteKeys keys = ite_keys(s);
+  const algo::BlackDropsOptions base = base_options(s).black_drops;
+  algo::IteOptions o = keys.ite;
+  o.episodes = base.episodes;
+  o.seed = base.seed;
+  o.theta_bound = base.search.theta_bound;
   o.behaviour = setup.behaviour;
   try {
     o.behaviour.check();
   } catch (const InvalidArgument& e) {
     throw ConfigError("task '" + task + "': " + e.what());
   }
-  auto& me = o.map_elites;
-  if (!s.at("ite.evaluations").empty()) me.max_evaluations = get_int(s, "ite.evaluations");
-  me.batch_size = static_cast<int>(get_int(s, "ite.batch"));
-  me.initial_population = static_cast<int>(get_int(s, "ite.initial_population"));
-  if (!s.at("ite.bins").empty())
-    o.bins.assign(setup.behaviour.bins.size(), static_cast<int>(get_int(s, "ite.bins")));
-  const std::string mutation = s.at("ite.mutation");
-  me.mutation = mutation == "gaussian"   ? ite::Mutation::kGaussian
-                : mutation == "resample" ? ite::Mutation::kResample
-                                         : ite::Mutation::kPolynomial;
-  if (!s.at("ite.mutation_rate").empty()) me.mutation_rate = get_double(s, "ite.mutation_rate");
-  me.polynomial_eta = get_double(s, "ite.polynomial_eta");
-  me.gaussian_sigma = get_double(s, "ite.gaussian_sigma");
-  me.grid_levels = static_cast<int>(get_int(s, "ite.grid_levels"));
-  me.crossover_rate = get_double(s, "ite.crossover_rate");
-  me.insertion = s.at("ite.insertion") == "epsilon" ? ite::InsertionRule::kEpsilon
-                                                    : ite::InsertionRule::kStrict;
-  me.epsilon = get_double(s, "ite.epsilon");
-  auto& mb = o.mboa;
-  mb.length_scale = get_double(s, "ite.length_scale");
-  mb.signal_variance = get_double(s, "ite.signal_variance");
-  mb.noise_variance = get_double(s, "ite.noise_variance");
-  mb.kappa = get_double(s, "ite.kappa");
-  mb.stop_ratio = get_double(s, "ite.stop_ratio");
-  mb.use_cell_centres = s.at("ite.cell_points") == "centre";
-  if (!s.at("ite.performance_scale").empty())
-    o.performance_scale = get_double(s, "ite.performance_scale");
-  if (!s.at("ite.observation_floor").empty())
-    o.observation_floor = get_double(s, "ite.observation_floor");
-  o.after_stop = s.at("ite.after_stop") == "end" ? algo::IteAfterStop::kEnd
-                                                 : algo::IteAfterStop::kRepeatBest;
-  o.checkpoint_seconds = 60 * get_double(s, "ite.checkpoint_minutes");
+  if (keys.bins > 0) o.bins.assign(setup.behaviour.bins.size(), keys.bins);
+  o.checkpoint_seconds = 60 * keys.checkpoint_minutes;
 
-  const std::string path = s.at("ite.archive");
+  const std::string& path = keys.archive;
   if (!path.empty()) {
     const std::string key = "config key 'ite.archive' = '" + path + "': ";
     ArchiveFile f;
@@ -267,7 +290,7 @@ algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
     if (!f.info.task.empty() && f.info.task != task)
       throw ConfigError(key + "the archive was built for the task '" + f.info.task +
                         "', not '" + task + "'");
-    if (!s.at("ite.bins").empty() && f.archive->bins() != o.bins)
+    if (keys.bins > 0 && f.archive->bins() != o.bins)
       throw ConfigError(key + "its grid differs from ite.bins = " + s.at("ite.bins") +
                         "; leave ite.bins empty (the archive's grid is used)");
     if (f.archive->empty()) throw ConfigError(key + "the archive holds no elite");
