@@ -15,7 +15,9 @@
 
 #include <deque>
 #include <functional>
+#include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -28,6 +30,11 @@ namespace drops::experiment {
 /// The named values of an enum key (the schema's allowed list and the parser), in the order shown.
 template <class T>
 using Choices = std::vector<std::pair<std::string, T>>;
+
+/// The field type of an "interval" key: [lower, upper], lower < upper.
+using Interval = std::array<double, 2>;
+/// The field type of a "names" key: distinct names among the key's allowed ones.
+using Names = std::vector<std::string>;
 
 /// The shortest text that reads back as v ("0.01", "1e-12", "300"). Thread-safe.
 std::string key_text(double v);
@@ -77,6 +84,11 @@ class KeyTable {
       for (const auto& c : *choices_) row_->spec.allowed.push_back(c.first);
       return *this;
     }
+    /// The names a "names" key (a Names field) may list.
+    Key& allowed(std::vector<std::string> names) {
+      row_->spec.allowed = std::move(names);
+      return *this;
+    }
     /// The schema's type name when it is not the field's (e.g. "enum" for a string whose allowed
     /// values a registry supplies).
     Key& type(std::string name) {
@@ -113,7 +125,8 @@ class KeyTable {
 
   /// Declares `key`, which sets the field that `field` returns (a callable Options& -> T&, e.g.
   /// `[](auto& o) -> auto& { return o.model.rprop.tolerance; }`, or a pointer to member). T is
-  /// bool, an integer type, a floating-point type, std::string, or (with values()) any type. Its
+  /// bool, an integer type, a floating-point type, std::string, Interval, Names (with allowed()),
+  /// std::optional of one of these (empty text = no value), or (with values()) any type. Its
   /// default is the field of a default-constructed Options (specs()). A key's name is unique in a
   /// schema: Registry refuses a task or algorithm that repeats one.
   template <class FieldFn>
@@ -175,8 +188,16 @@ class KeyTable {
   friend class KeyTable;
 
   template <class T>
+  struct is_optional : std::false_type {};
+  template <class U>
+  struct is_optional<std::optional<U>> : std::true_type {};
+
+  template <class T>
   static std::string type_name() {
-    if constexpr (std::is_same_v<T, bool>) return "bool";
+    if constexpr (is_optional<T>::value) return type_name<typename T::value_type>();
+    else if constexpr (std::is_same_v<T, Interval>) return "interval";
+    else if constexpr (std::is_same_v<T, Names>) return "names";
+    else if constexpr (std::is_same_v<T, bool>) return "bool";
     else if constexpr (std::is_integral_v<T>) return "int";
     else if constexpr (std::is_floating_point_v<T>) return "double";
     else if constexpr (std::is_same_v<T, std::string>) return "string";
@@ -190,7 +211,15 @@ class KeyTable {
         if (c.second == v) return c.first;
       return "";  // a default that no name denotes (an enum declared without values())
     }
-    if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+    if constexpr (is_optional<T>::value) {
+      return v ? to_text<typename T::value_type>(*v, {}) : std::string();
+    } else if constexpr (std::is_same_v<T, Interval>) {
+      return "[" + key_text(v[0]) + ", " + key_text(v[1]) + "]";
+    } else if constexpr (std::is_same_v<T, Names>) {
+      std::string t;
+      for (const auto& n : v) t += (t.empty() ? "" : ", ") + n;
+      return "[" + t + "]";
+    } else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
     else if constexpr (std::is_integral_v<T>) return key_text(static_cast<long long>(v));
     else if constexpr (std::is_floating_point_v<T>) return key_text(static_cast<double>(v));
     else if constexpr (std::is_same_v<T, std::string>) return v;
@@ -204,7 +233,14 @@ class KeyTable {
       for (const auto& c : choices) names.push_back(c.first);
       return choices[choice_index(s, key, names)].second;
     }
-    if constexpr (std::is_same_v<T, bool>) return get_bool(s, key);
+    if constexpr (is_optional<T>::value) {
+      if (s.at(key).empty()) return std::nullopt;
+      return parse<typename T::value_type>(s, key, {});
+    } else if constexpr (std::is_same_v<T, Interval>) {
+      const std::vector<double> v = get_interval(s, key);
+      return Interval{v[0], v[1]};
+    } else if constexpr (std::is_same_v<T, Names>) return get_names(s, key);
+    else if constexpr (std::is_same_v<T, bool>) return get_bool(s, key);
     else if constexpr (std::is_integral_v<T>) return static_cast<T>(get_int(s, key));
     else if constexpr (std::is_floating_point_v<T>) return static_cast<T>(get_double(s, key));
     else if constexpr (std::is_same_v<T, std::string>) return s.at(key);

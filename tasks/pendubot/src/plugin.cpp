@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/keys.hpp"
 #include "drops/pendubot/ite_descriptor.hpp"
 #include "drops/pendubot/pendubot.hpp"
 #include "drops/policy/policy.hpp"
@@ -26,6 +27,112 @@ const std::vector<std::string> kPanelTitles = {"A tunable & useful", "B tunable"
                                                "C tunable & misleading", "D partially tunable",
                                                "actual system"};
 
+/// Params' fields in the order of kParams (phi's order).
+const std::array<double Params::*, 6> kParamFields = {&Params::m1, &Params::m2, &Params::l1,
+                                                     &Params::l2, &Params::b1, &Params::b2};
+
+/// The values of the pendubot's keys, each declared once in key_table() with the field it sets;
+/// the defaults are these initialisers (and those of Params, TaskOptions and the policy's).
+struct PendubotKeys {
+  Params system;                          ///< system.*: the actual ("real") system, Table I
+  std::string preset = "tunable-useful";  ///< prior.preset: one of preset_names()
+  /// prior.<p>, in kParams' order: the prior's value instead of the preset's (empty: the preset's).
+  std::array<std::optional<double>, 6> prior;
+  experiment::Names tunable = {"m1", "m2", "l1", "l2"};  ///< prior.tunable
+  /// prior.bounds.<p>, in kParams' order: the search interval of each tunable parameter.
+  std::array<experiment::Interval, 6> bounds = {{{0.05, 1.0}, {0.05, 1.0}, {0.05, 1.0},
+                                                 {0.05, 1.0}, {0.0, 1.0}, {0.0, 1.0}}};
+  TaskOptions task;  ///< pendubot.* (goal_l1 and goal_l2 follow the system's lengths)
+  int hidden_units = policy::NeuralNetPolicyOptions().hidden_units;  ///< policy.hidden_units
+};
+
+experiment::KeyTable<PendubotKeys> make_key_table() {
+  experiment::KeyTable<PendubotKeys> t;
+  const auto unit_of = [](const std::string& p) {
+    return p[0] == 'm' ? "kg" : p[0] == 'l' ? "m" : "N m s";
+  };
+  for (std::size_t i = 0; i < kParams.size(); ++i) {
+    const std::string& p = kParams[i];
+    const bool mass = p[0] == 'm', len = p[0] == 'l';
+    const std::string what = mass  ? "mass of link "
+                             : len ? "length of link "
+                                   : "viscous friction of joint ";
+    t.add("system." + p, [f = kParamFields[i]](auto& k) -> auto& { return k.system.*f; })
+        .range(mass || len ? kMinMassOrLength : 0.0, 100)
+        .unit(unit_of(p))
+        .help("actual (\"real\") system: " + what + p.substr(1) + " (Table I, actual)");
+  }
+  experiment::Choices<std::string> presets;
+  for (const auto& n : preset_names()) presets.emplace_back(n, n);
+  t.add("prior.preset", &PendubotKeys::preset)
+      .values(presets)
+      .help("starting prior of Table I: tunable-useful (A), tunable (B), tunable-misleading (C), "
+            "partially-tunable (D), or actual");
+  for (std::size_t i = 0; i < kParams.size(); ++i) {
+    const std::string& p = kParams[i];
+    t.add("prior." + p, [i](auto& k) -> auto& { return k.prior[i]; })
+        .range(p[0] == 'b' ? 0.0 : kMinMassOrLength, 100)
+        .unit(unit_of(p))
+        .help("prior's " + p + " (empty = the preset's value); a custom prior is the preset plus "
+              "these");
+  }
+  t.add("prior.tunable", &PendubotKeys::tunable)
+      .allowed(kParams)
+      .help("parameters that GP-MI and MI may tune (the others stay fixed)");
+  for (std::size_t i = 0; i < kParams.size(); ++i) {
+    const std::string& p = kParams[i];
+    const bool ml = p[0] != 'b';
+    t.add("prior.bounds." + p, [i](auto& k) -> auto& { return k.bounds[i]; })
+        .range(ml ? kMinMassOrLength : 0.0, 100)
+        .unit(unit_of(p))
+        .help(std::string("search interval of ") + p + " when tunable" +
+              (ml ? " (lower >= 0.01: the inertia matrix is singular at 0)" : ""));
+  }
+  const auto task = [](auto& k) -> auto& { return k.task; };
+  t.add("pendubot.dt", [=](auto& k) -> auto& { return task(k).dt; })
+      .range(1e-4, 1)
+      .unit("s")
+      .help("control period");
+  t.add("pendubot.duration", [=](auto& k) -> auto& { return task(k).duration; })
+      .range(0.01, 100)
+      .unit("s")
+      .help("episode length (>= 3 pendubot.dt)");
+  t.add("pendubot.max_torque", [=](auto& k) -> auto& { return task(k).max_torque; })
+      .range(1e-3, 100)
+      .unit("N m")
+      .help("torque bound |u|");
+  t.add("pendubot.substeps", [=](auto& k) -> auto& { return task(k).substeps; })
+      .range(1, 1000)
+      .help("RK4 substeps per control period");
+  t.add("pendubot.reward_sigma", [=](auto& k) -> auto& { return task(k).reward_sigma; })
+      .range(1e-3, 10)
+      .unit("m")
+      .help("width sigma_c of the reward");
+  t.add("pendubot.solved_radius", [=](auto& k) -> auto& { return task(k).solved_radius; })
+      .range(1e-3, 2)
+      .unit("m")
+      .help("solved: the tip stays within this distance of upright ...");
+  t.add("pendubot.solved_window", [=](auto& k) -> auto& { return task(k).solved_window; })
+      .range(0, 100)
+      .unit("s")
+      .help("... for the whole last solved_window seconds of the episode");
+  t.add("policy.hidden_units", &PendubotKeys::hidden_units)
+      .range(1, 1000)
+      .help("tanh units of the network policy");
+  return t;
+}
+
+const experiment::KeyTable<PendubotKeys>& key_table() {
+  static const experiment::KeyTable<PendubotKeys> t = make_key_table();
+  return t;
+}
+
+PendubotKeys keys_of(const Settings& st) {
+  PendubotKeys k;
+  key_table().apply(st, k);
+  return k;
+}
+
 class PendubotPlugin final : public experiment::TaskPlugin {
  public:
   std::string name() const override { return "pendubot"; }
@@ -41,99 +148,32 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     return {{"model.gp_mi.score", "sum_likelihoods"}};
   }
 
-  std::vector<KeySpec> keys() const override {
-    const Params actual;
-    const TaskOptions to;
-    const policy::NeuralNetPolicyOptions po;
-    std::vector<KeySpec> s;
-    auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
-    auto num = [](double v) {
-      std::ostringstream o;
-      o << v;
-      return o.str();
-    };
-    const VectorXd phi = actual.to_phi();
-    for (std::size_t i = 0; i < kParams.size(); ++i) {
-      const std::string& p = kParams[i];
-      const bool mass = p[0] == 'm', len = p[0] == 'l';
-      const std::string unit = mass ? "kg" : len ? "m" : "N m s";
-      const std::string what = mass  ? "mass of link "
-                               : len ? "length of link "
-                                     : "viscous friction of joint ";
-      add({"system." + p, "double", num(phi[static_cast<Eigen::Index>(i)]),
-           mass || len ? kMinMassOrLength : 0.0, 100, {}, unit,
-           "actual (\"real\") system: " + what + p.substr(1) + " (Table I, actual)"});
-    }
-    add({"prior.preset", "enum", "tunable-useful", 0, 0, preset_names(), "-",
-         "starting prior of Table I: tunable-useful (A), tunable (B), tunable-misleading (C), "
-         "partially-tunable (D), or actual"});
-    for (const auto& p : kParams)
-      add({"prior." + p, "double", "", p[0] == 'b' ? 0.0 : kMinMassOrLength, 100, {},
-           p[0] == 'm' ? "kg" : p[0] == 'l' ? "m" : "N m s",
-           "prior's " + p + " (empty = the preset's value); a custom prior is the preset plus these"});
-    add({"prior.tunable", "names", "[m1, m2, l1, l2]", 0, 0, kParams, "-",
-         "parameters that GP-MI and MI may tune (the others stay fixed)"});
-    for (const auto& p : kParams) {
-      const bool ml = p[0] != 'b';
-      add({"prior.bounds." + p, "interval", ml ? "[0.05, 1.0]" : "[0.0, 1.0]",
-           ml ? kMinMassOrLength : 0.0, 100, {}, ml ? (p[0] == 'm' ? "kg" : "m") : "N m s",
-           std::string("search interval of ") + p + " when tunable" +
-               (ml ? " (lower >= 0.01: the inertia matrix is singular at 0)" : "")});
-    }
-    add({"pendubot.dt", "double", num(to.dt), 1e-4, 1, {}, "s", "control period"});
-    add({"pendubot.duration", "double", num(to.duration), 0.01, 100, {}, "s",
-         "episode length (>= 3 pendubot.dt)"});
-    add({"pendubot.max_torque", "double", num(to.max_torque), 1e-3, 100, {}, "N m",
-         "torque bound |u|"});
-    add({"pendubot.substeps", "int", num(to.substeps), 1, 1000, {}, "-",
-         "RK4 substeps per control period"});
-    add({"pendubot.reward_sigma", "double", num(to.reward_sigma), 1e-3, 10, {}, "m",
-         "width sigma_c of the reward"});
-    add({"pendubot.solved_radius", "double", num(to.solved_radius), 1e-3, 2, {}, "m",
-         "solved: the tip stays within this distance of upright ..."});
-    add({"pendubot.solved_window", "double", num(to.solved_window), 0, 100, {}, "s",
-         "... for the whole last solved_window seconds of the episode"});
-    add({"policy.hidden_units", "int", num(po.hidden_units), 1, 1000, {}, "-",
-         "tanh units of the network policy"});
-    return s;
-  }
+  std::vector<KeySpec> keys() const override { return key_table().specs(); }
 
   experiment::TaskSetup make(const Settings& st) const override {
-    using experiment::get_double;
-    using experiment::get_int;
-    TaskOptions to;
-    to.dt = get_double(st, "pendubot.dt");
-    to.duration = get_double(st, "pendubot.duration");
-    to.max_torque = get_double(st, "pendubot.max_torque");
-    to.substeps = static_cast<int>(get_int(st, "pendubot.substeps"));
-    to.reward_sigma = get_double(st, "pendubot.reward_sigma");
-    to.solved_radius = get_double(st, "pendubot.solved_radius");
-    to.solved_window = get_double(st, "pendubot.solved_window");
+    const PendubotKeys k = keys_of(st);
+    TaskOptions to = k.task;
     // Three control periods at least: IT&E's behaviour descriptor reads the tip at three steps.
     if (to.duration < 3 * to.dt)
       throw ConfigError("config key 'pendubot.duration' = '" + st.at("pendubot.duration") +
                         "': must be >= 3 pendubot.dt (three control periods)");
-    VectorXd actual_phi(6);
-    for (int i = 0; i < 6; ++i)
-      actual_phi[i] = get_double(st, "system." + kParams[static_cast<std::size_t>(i)]);
-    const Params actual = Params::from_phi(actual_phi);
+    const Params& actual = k.system;
+    const VectorXd actual_phi = actual.to_phi();
     to.goal_l1 = actual.l1;  // the reward uses the actual lengths (settings.md §2)
     to.goal_l2 = actual.l2;
 
     experiment::TaskSetup s;
     auto& p = s.prior_parameters;
     p.names = kParams;
-    p.values = preset(st.at("prior.preset")).to_phi();
-    for (int i = 0; i < 6; ++i) {
-      const std::string k = "prior." + kParams[static_cast<std::size_t>(i)];
-      if (!st.at(k).empty()) p.values[i] = get_double(st, k);
-    }
+    p.values = preset(k.preset).to_phi();
+    for (int i = 0; i < 6; ++i)
+      if (const auto& v = k.prior[static_cast<std::size_t>(i)]) p.values[i] = *v;
     try {
       Params::from_phi(p.values).check();
     } catch (const InvalidArgument& ex) {
       throw ConfigError(std::string("prior: ") + ex.what());
     }
-    for (const auto& n : experiment::get_names(st, "prior.tunable")) {
+    for (const auto& n : k.tunable) {
       const auto it = std::find(kParams.begin(), kParams.end(), n);
       p.tunable.push_back(static_cast<int>(it - kParams.begin()));
     }
@@ -141,12 +181,13 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     p.lower.resize(static_cast<Eigen::Index>(p.tunable.size()));
     p.upper.resize(static_cast<Eigen::Index>(p.tunable.size()));
     p.choices.assign(p.tunable.size(), {});
-    for (std::size_t k = 0; k < p.tunable.size(); ++k) {
-      const std::string& name = kParams[static_cast<std::size_t>(p.tunable[k])];
-      const auto b = experiment::get_interval(st, "prior.bounds." + name);
-      p.lower[static_cast<Eigen::Index>(k)] = b[0];
-      p.upper[static_cast<Eigen::Index>(k)] = b[1];
-      const double v = p.values[p.tunable[k]];
+    for (std::size_t j = 0; j < p.tunable.size(); ++j) {
+      const auto i = static_cast<std::size_t>(p.tunable[j]);
+      const std::string& name = kParams[i];
+      const experiment::Interval& b = k.bounds[i];
+      p.lower[static_cast<Eigen::Index>(j)] = b[0];
+      p.upper[static_cast<Eigen::Index>(j)] = b[1];
+      const double v = p.values[p.tunable[j]];
       if (v < b[0] || v > b[1]) {
         std::ostringstream o;
         o << "config key 'prior.bounds." << name << "' = '" << st.at("prior.bounds." + name)
@@ -157,7 +198,7 @@ class PendubotPlugin final : public experiment::TaskPlugin {
 
     policy::NeuralNetPolicyOptions po;
     po.observation_dim = 6;
-    po.hidden_units = static_cast<int>(get_int(st, "policy.hidden_units"));
+    po.hidden_units = k.hidden_units;
     po.action_dim = 1;
     po.input_scale = VectorXd(6);
     po.input_scale << 10, 10, 1, 1, 1, 1;
@@ -188,16 +229,17 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     return s;
   }
 
-  std::string prior_label(const Settings& st) const override { return st.at("prior.preset"); }
+  std::string prior_label(const Settings& st) const override { return keys_of(st).preset; }
 
   experiment::ReportInfo report_info(const Settings& st) const override {
     experiment::ReportInfo r;
     experiment::Panel& p = r.panel;
-    p.label = st.at("prior.preset");
+    const PendubotKeys k = keys_of(st);
+    p.label = k.preset;
     const auto it = std::find(kPanelOrder.begin(), kPanelOrder.end(), p.label);
     p.rank = it == kPanelOrder.end() ? 100 : static_cast<int>(it - kPanelOrder.begin());
     p.title = it == kPanelOrder.end() ? p.label : kPanelTitles[static_cast<std::size_t>(p.rank)];
-    r.phi_tunable = experiment::get_names(st, "prior.tunable");
+    r.phi_tunable = k.tunable;
     for (const auto& n : kParams)
       r.phi_labels[n] = {n, n[0] == 'm' ? "kg" : n[0] == 'l' ? "m" : "N·m·s/rad"};
     r.column_labels = {{"theta1", {"θ₁", "rad"}},
