@@ -8,6 +8,8 @@
 #include <limits>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/experiment/keys.hpp"
 #include "drops/hexapod/ite_descriptor.hpp"
 #include "drops/hexapod/policy.hpp"
 #include "drops/hexapod/prior.hpp"
@@ -30,6 +32,117 @@ int leg_index(const std::string& name) {
   return name == "intact" || name == "none" ? -1 : name[3] - '0';
 }
 
+/// The legs of `names` by their index (leg_index), for an enum key.
+experiment::Choices<int> leg_values(const std::vector<std::string>& names) {
+  experiment::Choices<int> c;
+  for (const auto& n : names) c.emplace_back(n, leg_index(n));
+  return c;
+}
+
+/// The values of the hexapod's keys, each declared once in key_table() with the field it sets;
+/// the defaults are these initialisers (and those of the options structs inside).
+struct HexapodKeys {
+  HexapodTaskOptions task;                       ///< hexapod.horizon, hexapod.reward.tilt_penalty
+  int prior_start = -1;                          ///< hexapod.prior.start: a leg removed, -1 none
+  experiment::Names prior_choices = kLegChoices;  ///< hexapod.prior.choices
+  /// hexapod.prior.engine, ground_friction, velocity_gain_period and hexapod.guard.
+  HexapodPriorOptions prior;
+  int removed_leg = -1;       ///< hexapod.damage.removed_leg (-1: none)
+  int shortened_leg = -1;     ///< hexapod.damage.shortened_leg (-1: none)
+  double tibia_factor = 0.5;  ///< hexapod.damage.tibia_factor
+  int blocked_leg = -1;       ///< hexapod.damage.blocked_leg (-1: none)
+  int blocked_joint = 1;      ///< hexapod.damage.blocked_joint
+  double blocked_angle = 0;   ///< hexapod.damage.blocked_angle, rad
+  bool noise = true;          ///< hexapod.noise
+  DutyFactorOptions duty;     ///< hexapod.ite.contact_height
+};
+
+experiment::KeyTable<HexapodKeys> make_key_table() {
+  experiment::KeyTable<HexapodKeys> t;
+  t.add("hexapod.horizon", [](auto& k) -> auto& { return k.task.horizon; })
+      .range(1, 10000)
+      .help("control steps of 0.1 s per episode (40 = the paper's 4 s)");
+  t.add("hexapod.reward.tilt_penalty", [](auto& k) -> auto& { return k.task.tilt_penalty; })
+      .range(0, 1000)
+      .unit("per step")
+      .help("reward when the body is tilted 90 degrees or more (subtracted per control step; "
+            "settings.md: 10, the paper's task). The walking reward is the forward position "
+            "times dt, about 0.01 per step for a good gait, so this sets how much a predicted "
+            "fall weighs against speed in the policy search "
+            "(docs/decisions/hexapod-tilt-penalty.md)");
+  t.add("hexapod.prior.start", &HexapodKeys::prior_start)
+      .values(leg_values(kLegChoices))
+      .help("the prior simulator of episode 1 and of gp_prior, GP-MI's starting point: the "
+            "intact robot or leg k removed (legs 0 rear-left, 1 mid-left, 2 front-left, 3 "
+            "front-right, 4 mid-right, 5 rear-right)");
+  t.add("hexapod.prior.choices", &HexapodKeys::prior_choices)
+      .allowed(kLegChoices)
+      .help("the prior family GP-MI and MI search exhaustively (the paper's 7)");
+  const auto sim = [](auto& k) -> auto& { return k.prior.simulator; };
+  t.add("hexapod.prior.engine", [=](auto& k) -> auto& { return sim(k).engine; })
+      .values({{"dart", PriorEngine::kDart}, {"rigid", PriorEngine::kRigid}})
+      .help("how the prior simulator computes a physics step: rigid (a dedicated step for the "
+            "prior's kinematic legs, DART's physics to round-off, the prior alone about 7 times "
+            "faster; docs/benchmarks.md) or dart (DART's world step, the engine of the first "
+            "campaigns)");
+  t.add("hexapod.prior.ground_friction", [=](auto& k) -> auto& { return sim(k).ground_friction; })
+      .range(0.05, 2)
+      .help("Coulomb friction coefficient of the prior's ground (1: DART's default, that of "
+            "every result before this key; the \"real\" robot's floor is 0.4; "
+            "docs/decisions/hexapod-prior-gap.md)");
+  t.add("hexapod.prior.velocity_gain_period",
+        [=](auto& k) -> auto& { return sim(k).velocity_gain_period; })
+      .range(1, 1000)
+      .help("the prior's velocity actuators command (q_target - q) / (period * 0.01 s), clipped "
+            "to 7 rad/s (settings.md: pi; 1 closes the gap in one 10 ms step, below 1 would "
+            "overshoot). Larger values make slower actuators, closer to the \"real\" robot's "
+            "torque-limited servos (docs/decisions/hexapod-prior-gap.md)");
+  t.add("hexapod.damage.removed_leg", &HexapodKeys::removed_leg)
+      .values(leg_values(kDamageChoices))
+      .help("the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or "
+            "leg5)");
+  t.add("hexapod.damage.shortened_leg", &HexapodKeys::shortened_leg)
+      .values(leg_values(kDamageChoices))
+      .help("a leg of the real robot whose tibia is shortened (damage outside the prior family)");
+  t.add("hexapod.damage.tibia_factor", &HexapodKeys::tibia_factor)
+      .range(0.05, 1)
+      .help("the shortened tibia's length as a fraction of the intact one");
+  t.add("hexapod.damage.blocked_leg", &HexapodKeys::blocked_leg)
+      .values(leg_values(kDamageChoices))
+      .help("a leg of the real robot with one joint blocked (damage outside the prior family)");
+  t.add("hexapod.damage.blocked_joint", &HexapodKeys::blocked_joint)
+      .range(0, 2)
+      .help("which joint of blocked_leg is blocked (0 hip, 1 femur, 2 tibia)");
+  t.add("hexapod.damage.blocked_angle", &HexapodKeys::blocked_angle)
+      .range(-1.5707963267948966, 1.5707963267948966)
+      .unit("rad")
+      .help("the angle the blocked joint is held at (within its limits)");
+  t.add("hexapod.noise", &HexapodKeys::noise)
+      .help("measurement noise on the real robot's state (motion capture, encoders)");
+  t.add("hexapod.ite.contact_height", [](auto& k) -> auto& { return k.duty.contact_height; })
+      .range(0, 0.2)
+      .unit("m")
+      .help("IT&E's duty-factor descriptor: a foot touches the ground when its lowest point is "
+            "at most this high (docs/ite.md)");
+  t.add("hexapod.guard", [](auto& k) -> auto& { return k.prior.guard.policy; })
+      .values({{"stop", StateGuardPolicy::kStop}, {"clamp", StateGuardPolicy::kClamp}})
+      .help("what the prior does with an implausible predicted state (non-finite, beyond joint "
+            "limits, body height out of range): stop that rollout, or clamp the state and go "
+            "on; every event is counted in the episode summary");
+  return t;
+}
+
+const experiment::KeyTable<HexapodKeys>& key_table() {
+  static const experiment::KeyTable<HexapodKeys> t = make_key_table();
+  return t;
+}
+
+HexapodKeys keys_of(const Settings& st) {
+  HexapodKeys k;
+  key_table().apply(st, k);
+  return k;
+}
+
 class HexapodPlugin final : public experiment::TaskPlugin {
  public:
   std::string name() const override { return "hexapod"; }
@@ -40,59 +153,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
            "friction, noise and optional damage.";
   }
 
-  std::vector<KeySpec> keys() const override {
-    const HexapodTaskOptions to;
-    std::vector<KeySpec> s;
-    auto add = [&](KeySpec k) { s.push_back(std::move(k)); };
-    add({"hexapod.horizon", "int", std::to_string(to.horizon), 1, 10000, {}, "-",
-         "control steps of 0.1 s per episode (40 = the paper's 4 s)"});
-    add({"hexapod.reward.tilt_penalty", "double", "10", 0, 1000, {}, "per step",
-         "reward when the body is tilted 90 degrees or more (subtracted per control step; "
-         "settings.md: 10, the paper's task). The walking reward is the forward position times "
-         "dt, about 0.01 per step for a good gait, so this sets how much a predicted fall weighs "
-         "against speed in the policy search (docs/decisions/hexapod-tilt-penalty.md)"});
-    add({"hexapod.prior.start", "enum", "intact", 0, 0, kLegChoices, "-",
-         "the prior simulator of episode 1 and of gp_prior, GP-MI's starting point: the intact "
-         "robot or leg k removed (legs 0 rear-left, 1 mid-left, 2 front-left, 3 front-right, "
-         "4 mid-right, 5 rear-right)"});
-    add({"hexapod.prior.choices", "names", "[intact, leg0, leg1, leg2, leg3, leg4, leg5]", 0, 0,
-         kLegChoices, "-", "the prior family GP-MI and MI search exhaustively (the paper's 7)"});
-    add({"hexapod.prior.engine", "enum", "rigid", 0, 0, {"dart", "rigid"}, "-",
-         "how the prior simulator computes a physics step: rigid (a dedicated step for the "
-         "prior's kinematic legs, DART's physics to round-off, the prior alone about 7 times "
-         "faster; docs/benchmarks.md) or dart (DART's world step, the engine of the first campaigns)"});
-    add({"hexapod.prior.ground_friction", "double", "1", 0.05, 2, {}, "-",
-         "Coulomb friction coefficient of the prior's ground (1: DART's default, that of every "
-         "result before this key; the \"real\" robot's floor is 0.4; "
-         "docs/decisions/hexapod-prior-gap.md)"});
-    add({"hexapod.prior.velocity_gain_period", "double", "3.141592653589793", 1, 1000, {}, "-",
-         "the prior's velocity actuators command (q_target - q) / (period * 0.01 s), clipped to "
-         "7 rad/s (settings.md: pi; 1 closes the gap in one 10 ms step, below 1 would overshoot). "
-         "Larger values make slower actuators, closer to the \"real\" "
-         "robot's torque-limited servos (docs/decisions/hexapod-prior-gap.md)"});
-    add({"hexapod.damage.removed_leg", "enum", "none", 0, 0, kDamageChoices, "-",
-         "the leg removed from the \"real\" robot (the paper's damage: a rear leg, leg0 or leg5)"});
-    add({"hexapod.damage.shortened_leg", "enum", "none", 0, 0, kDamageChoices, "-",
-         "a leg of the real robot whose tibia is shortened (damage outside the prior family)"});
-    add({"hexapod.damage.tibia_factor", "double", "0.5", 0.05, 1, {}, "-",
-         "the shortened tibia's length as a fraction of the intact one"});
-    add({"hexapod.damage.blocked_leg", "enum", "none", 0, 0, kDamageChoices, "-",
-         "a leg of the real robot with one joint blocked (damage outside the prior family)"});
-    add({"hexapod.damage.blocked_joint", "int", "1", 0, 2, {}, "-",
-         "which joint of blocked_leg is blocked (0 hip, 1 femur, 2 tibia)"});
-    add({"hexapod.damage.blocked_angle", "double", "0", -1.5707963267948966, 1.5707963267948966,
-         {}, "rad", "the angle the blocked joint is held at (within its limits)"});
-    add({"hexapod.noise", "bool", "true", 0, 0, {}, "-",
-         "measurement noise on the real robot's state (motion capture, encoders)"});
-    add({"hexapod.ite.contact_height", "double", "0.005", 0, 0.2, {}, "m",
-         "IT&E's duty-factor descriptor: a foot touches the ground when its lowest point is at "
-         "most this high (docs/ite.md)"});
-    add({"hexapod.guard", "enum", "stop", 0, 0, {"stop", "clamp"}, "-",
-         "what the prior does with an implausible predicted state (non-finite, beyond joint "
-         "limits, body height out of range): stop that rollout, or clamp the state and go on; "
-         "every event is counted in the episode summary"});
-    return s;
-  }
+  std::vector<KeySpec> keys() const override { return key_table().specs(); }
 
   std::map<std::string, std::string> shared_defaults() const override {
     // The gait's parameters in [0, 1] are theta + 0.5; rollouts cost about 50 times the
@@ -130,23 +191,21 @@ class HexapodPlugin final : public experiment::TaskPlugin {
   }
 
   experiment::TaskSetup make(const Settings& st) const override {
-    using experiment::get_double;
-    using experiment::get_int;
+    const HexapodKeys k = keys_of(st);
+    const experiment::BaseOptions base = experiment::base_options(st);
     experiment::TaskSetup s;
     // The prior family: phi = [removed_leg], one discrete tunable entry (paper §V-B: 7 priors).
-    const int prior_start = leg_index(st.at("hexapod.prior.start"));
+    const int prior_start = k.prior_start;
     std::vector<int> choices;
-    for (const auto& n : experiment::get_names(st, "hexapod.prior.choices"))
-      choices.push_back(leg_index(n));
+    for (const auto& n : k.prior_choices) choices.push_back(leg_index(n));
     std::sort(choices.begin(), choices.end());
     if (choices.empty())
       throw ConfigError("config key 'hexapod.prior.choices' = '[]': name at least one prior");
     if (std::find(choices.begin(), choices.end(), prior_start) == choices.end())
       throw ConfigError("config key 'hexapod.prior.start' = '" + st.at("hexapod.prior.start") +
                         "': not among hexapod.prior.choices = " + st.at("hexapod.prior.choices"));
-    const int removed = leg_index(st.at("hexapod.damage.removed_leg"));
-    for (const char* k : {"hexapod.damage.shortened_leg", "hexapod.damage.blocked_leg"}) {
-      const int leg = leg_index(st.at(k));
+    const int removed = k.removed_leg;
+    for (const int leg : {k.shortened_leg, k.blocked_leg}) {
       if (leg >= 0 && leg == removed)
         throw ConfigError("config: hexapod.damage: leg" + std::to_string(leg) +
                           " is removed; it cannot also be shortened or blocked");
@@ -161,32 +220,24 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     s.phi_actual = {static_cast<double>(removed)};
     s.prior_label = prior_label(st);
 
-    HexapodTaskOptions to;
-    to.horizon = static_cast<int>(get_int(st, "hexapod.horizon"));
-    to.tilt_penalty = get_double(st, "hexapod.reward.tilt_penalty");
+    const HexapodTaskOptions to = k.task;
     auto task = std::make_shared<HexapodTask>(to);
     s.task = task;
 
     RealRobotOptions ro;
     ro.spec = real_robot_spec(st);
-    if (st.at("hexapod.noise") != "true") ro.noise = MeasurementNoise{0, 0, 0, 0, 0, 0};
+    if (!k.noise) ro.noise = MeasurementNoise{0, 0, 0, 0, 0, 0};
     std::string why;
     if (!ro.IsValid(&why)) throw ConfigError("config: hexapod.damage: " + why);
     s.real = std::make_unique<HexapodRealSystem>(ro);
 
     HexapodGaitPolicyOptions po;
     po.observation_dim = kObservationDim;
-    po.theta_bound = get_double(st, "policy.bound");
+    po.theta_bound = base.black_drops.search.theta_bound;
     s.policy = std::make_unique<HexapodGaitPolicy>(po);
 
-    HexapodPriorOptions mo;
-    mo.guard.policy =
-        st.at("hexapod.guard") == "clamp" ? StateGuardPolicy::kClamp : StateGuardPolicy::kStop;
-    mo.pool_capacity = static_cast<int>(get_int(st, "threads"));  // 0: hardware threads
-    mo.simulator.engine =
-        st.at("hexapod.prior.engine") == "rigid" ? PriorEngine::kRigid : PriorEngine::kDart;
-    mo.simulator.ground_friction = get_double(st, "hexapod.prior.ground_friction");
-    mo.simulator.velocity_gain_period = get_double(st, "hexapod.prior.velocity_gain_period");
+    HexapodPriorOptions mo = k.prior;
+    mo.pool_capacity = base.threads;  // 0: hardware threads
     auto prior = std::make_shared<HexapodPrior>(mo);
     s.prior = prior;
 
@@ -222,8 +273,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
     auto& b = s.behaviour;
     for (int k = 0; k < kNumLegs; ++k) b.names.push_back(fmt::format("duty_leg{}", k));
     b.bins.assign(kNumLegs, 5);  // 5^6 = 15,625 cells, the reference grid
-    DutyFactorOptions df;
-    df.contact_height = get_double(st, "hexapod.ite.contact_height");
+    const DutyFactorOptions df = k.duty;
     b.describe = [prior, prior_start, df](const rollout::Trajectory& tr) {
       return duty_factor(tr, prior->pool(prior_start), df);
     };
@@ -303,16 +353,14 @@ class HexapodPlugin final : public experiment::TaskPlugin {
 }  // namespace
 
 HexapodSpec real_robot_spec(const Settings& st) {
-  HexapodSpec spec = HexapodSpec::with_leg_removed(leg_index(st.at("hexapod.damage.removed_leg")));
-  const int shortened = leg_index(st.at("hexapod.damage.shortened_leg"));
-  if (shortened >= 0)
-    spec.legs[static_cast<std::size_t>(shortened)].tibia_length_factor =
-        std::stod(st.at("hexapod.damage.tibia_factor"));
-  const int blocked = leg_index(st.at("hexapod.damage.blocked_leg"));
-  if (blocked >= 0) {
-    auto& leg = spec.legs[static_cast<std::size_t>(blocked)];
-    leg.blocked_joint = static_cast<int>(std::stoll(st.at("hexapod.damage.blocked_joint")));
-    leg.blocked_angle = std::stod(st.at("hexapod.damage.blocked_angle"));
+  const HexapodKeys k = keys_of(st);
+  HexapodSpec spec = HexapodSpec::with_leg_removed(k.removed_leg);
+  if (k.shortened_leg >= 0)
+    spec.legs[static_cast<std::size_t>(k.shortened_leg)].tibia_length_factor = k.tibia_factor;
+  if (k.blocked_leg >= 0) {
+    auto& leg = spec.legs[static_cast<std::size_t>(k.blocked_leg)];
+    leg.blocked_joint = k.blocked_joint;
+    leg.blocked_angle = k.blocked_angle;
   }
   return spec;
 }
