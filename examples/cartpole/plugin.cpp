@@ -4,13 +4,51 @@
 
 #include "cartpole.hpp"
 #include "drops/core/errors.hpp"
+#include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/policy/policy.hpp"
 
 namespace cartpole {
 namespace {
 
-using drops::experiment::get_double;
+/// The values of the cart-pole's keys, each declared once in key_table() with the field it sets;
+/// the defaults are these initialisers (and those of Params and Options).
+struct CartPoleKeys {
+  Params real;                                      ///< cartpole.pole_length
+  double prior_pole_length = 0.35;                  ///< cartpole.prior.pole_length
+  drops::experiment::Interval bounds = {0.1, 1.0};  ///< cartpole.prior.bounds
+  Options task;                                     ///< cartpole.duration
+};
+
+const drops::experiment::KeyTable<CartPoleKeys>& key_table() {
+  static const drops::experiment::KeyTable<CartPoleKeys> t = [] {
+    drops::experiment::KeyTable<CartPoleKeys> k;
+    k.add("cartpole.pole_length", [](auto& c) -> auto& { return c.real.pole_length; })
+        .range(0.05, 5)
+        .unit("m")
+        .help("the real pole's length");
+    k.add("cartpole.prior.pole_length", &CartPoleKeys::prior_pole_length)
+        .range(0.05, 5)
+        .unit("m")
+        .help("the simulator prior's pole length (GP-MI's start)");
+    k.add("cartpole.prior.bounds", &CartPoleKeys::bounds)
+        .range(0.05, 5)
+        .unit("m")
+        .help("the interval GP-MI searches the pole length in");
+    k.add("cartpole.duration", [](auto& c) -> auto& { return c.task.duration; })
+        .range(0.5, 60)
+        .unit("s")
+        .help("episode length");
+    return k;
+  }();
+  return t;
+}
+
+CartPoleKeys keys_of(const drops::experiment::Settings& st) {
+  CartPoleKeys k;
+  key_table().apply(st, k);
+  return k;
+}
 
 class CartPolePlugin final : public drops::experiment::TaskPlugin {
  public:
@@ -19,24 +57,15 @@ class CartPolePlugin final : public drops::experiment::TaskPlugin {
     return "Cart-pole swing-up (an example of your own robot): the prior's pole length is wrong "
            "and tunable.";
   }
-  std::vector<drops::experiment::KeySpec> keys() const override {
-    return {{"cartpole.pole_length", "double", "0.5", 0.05, 5, {}, "m",
-             "the real pole's length"},
-            {"cartpole.prior.pole_length", "double", "0.35", 0.05, 5, {}, "m",
-             "the simulator prior's pole length (GP-MI's start)"},
-            {"cartpole.prior.bounds", "interval", "[0.1, 1.0]", 0.05, 5, {}, "m",
-             "the interval GP-MI searches the pole length in"},
-            {"cartpole.duration", "double", "4", 0.5, 60, {}, "s", "episode length"}};
-  }
+  std::vector<drops::experiment::KeySpec> keys() const override { return key_table().specs(); }
   drops::experiment::TaskSetup make(const drops::experiment::Settings& st) const override {
-    Options o;
-    o.duration = get_double(st, "cartpole.duration");
-    Params real;
-    real.pole_length = get_double(st, "cartpole.pole_length");
+    const CartPoleKeys k = keys_of(st);
+    Options o = k.task;
+    const Params real = k.real;
     o.goal_length = real.pole_length;
     Params prior = real;
-    prior.pole_length = get_double(st, "cartpole.prior.pole_length");
-    const auto bounds = drops::experiment::get_interval(st, "cartpole.prior.bounds");
+    prior.pole_length = k.prior_pole_length;
+    const auto& bounds = k.bounds;
     if (prior.pole_length < bounds[0] || prior.pole_length > bounds[1])
       throw drops::ConfigError("config key 'cartpole.prior.pole_length' = '" +
                                st.at("cartpole.prior.pole_length") +
