@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "drops/core/problem.hpp"
+#include "drops/experiment/experiment.hpp"
 #include "drops/model/mean_function.hpp"
 #include "drops/policy/policy.hpp"
 
@@ -343,17 +344,18 @@ class PyTaskPlugin final : public ex::TaskPlugin {
   std::string name() const override { return s_.name; }
   std::string description() const override { return s_.description; }
   std::vector<ex::KeySpec> keys() const override {
-    return {{"policy.hidden_units", "int", std::to_string(s_.hidden_units), 1, 1000, {}, "-",
-             "tanh units of the network policy"}};
+    policy::NeuralNetPolicyOptions defaults;
+    defaults.hidden_units = s_.hidden_units;  // the robot's own default
+    return ex::neural_net_policy_key_table().specs(defaults);
   }
   ex::TaskSetup make(const ex::Settings& st) const override {
     ex::TaskSetup s;
     s.task = std::make_shared<PyTask>(s_, c_);
     s.real = std::make_unique<PySystem>(s_.E, c_);
     policy::NeuralNetPolicyOptions po;
+    ex::neural_net_policy_key_table().apply(st, po);  // policy.hidden_units
     po.observation_dim = s_.O;
     po.action_dim = s_.A;
-    po.hidden_units = static_cast<int>(ex::get_int(st, "policy.hidden_units"));
     po.input_scale = s_.observation_scale;
     po.max_action = s_.max_action;
     s.policy = std::make_unique<policy::NeuralNetPolicy>(po);

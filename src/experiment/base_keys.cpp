@@ -228,6 +228,17 @@ const KeyTable<BaseOptions>& base_key_table() {
   return t;
 }
 
+const KeyTable<policy::NeuralNetPolicyOptions>& neural_net_policy_key_table() {
+  static const KeyTable<policy::NeuralNetPolicyOptions> t = [] {
+    KeyTable<policy::NeuralNetPolicyOptions> k;
+    k.add("policy.hidden_units", [](auto& o) -> auto& { return o.hidden_units; })
+        .range(1, 1000)
+        .help("tanh units of the network policy");
+    return k;
+  }();
+  return t;
+}
+
 BaseOptions base_options(const Settings& settings) {
   BaseOptions o;
   base_key_table().apply(settings, o);

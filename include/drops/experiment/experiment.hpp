@@ -36,6 +36,11 @@ struct BaseOptions {
 /// Thread-safe.
 const KeyTable<BaseOptions>& base_key_table();
 
+/// The keys of the network policy (policy::NeuralNetPolicyOptions: policy.hidden_units) for a
+/// task whose policy family it is: the task includes them in its own table (KeyTable::include)
+/// or declares them with its own defaults (specs(options)). Thread-safe.
+const KeyTable<policy::NeuralNetPolicyOptions>& neural_net_policy_key_table();
+
 /// The base keys' values of validated settings (load_settings). Throws ConfigError naming the key
 /// for a value that does not convert. Thread-safe.
 BaseOptions base_options(const Settings& settings);

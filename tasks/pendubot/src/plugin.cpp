@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/pendubot/ite_descriptor.hpp"
 #include "drops/pendubot/pendubot.hpp"
@@ -43,7 +44,7 @@ struct PendubotKeys {
   std::array<experiment::Interval, 6> bounds = {{{0.05, 1.0}, {0.05, 1.0}, {0.05, 1.0},
                                                  {0.05, 1.0}, {0.0, 1.0}, {0.0, 1.0}}};
   TaskOptions task;  ///< pendubot.* (goal_l1 and goal_l2 follow the system's lengths)
-  int hidden_units = policy::NeuralNetPolicyOptions().hidden_units;  ///< policy.hidden_units
+  policy::NeuralNetPolicyOptions policy;  ///< policy.hidden_units (the rest set by make())
 };
 
 experiment::KeyTable<PendubotKeys> make_key_table() {
@@ -116,9 +117,7 @@ experiment::KeyTable<PendubotKeys> make_key_table() {
       .range(0, 100)
       .unit("s")
       .help("... for the whole last solved_window seconds of the episode");
-  t.add("policy.hidden_units", &PendubotKeys::hidden_units)
-      .range(1, 1000)
-      .help("tanh units of the network policy");
+  t.include(experiment::neural_net_policy_key_table(), &PendubotKeys::policy);
   return t;
 }
 
@@ -196,9 +195,8 @@ class PendubotPlugin final : public experiment::TaskPlugin {
       }
     }
 
-    policy::NeuralNetPolicyOptions po;
+    policy::NeuralNetPolicyOptions po = k.policy;
     po.observation_dim = 6;
-    po.hidden_units = k.hidden_units;
     po.action_dim = 1;
     po.input_scale = VectorXd(6);
     po.input_scale << 10, 10, 1, 1, 1, 1;
