@@ -1049,7 +1049,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
       run.task_settings[k.key] = v;
     }
     try {
-      run.seed = get_int(config, "seed");
+      run.seed = static_cast<std::int64_t>(base_options(config).black_drops.seed);
     } catch (const std::exception&) {
     }
   }

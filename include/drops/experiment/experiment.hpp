@@ -54,10 +54,11 @@ struct Experiment {
   VariantStyle variant_style;  ///< AlgorithmPlugin::variant_style (label, order, colour)
   bool uses_prior = true;     ///< AlgorithmPlugin::uses_prior
   bool uses_model = true;     ///< AlgorithmPlugin::uses_model
-  std::uint64_t seed = 1;
-  int threads = 0;            ///< 0 = all hardware threads
-  std::string output = "runs";
-  std::string name;           ///< run directory name ("" = default_run_name())
+  // seed, threads, output, name: the keys' values (their defaults: BaseOptions').
+  std::uint64_t seed = 0;     ///< key seed: the run's seed
+  int threads = 0;            ///< key threads: 0 = all hardware threads
+  std::string output;         ///< key output: parent directory of run directories
+  std::string name;           ///< key name: run directory name ("" = default_run_name())
   TaskSetup setup;
   ReportInfo report;          ///< run_report_info of TaskPlugin::report_info of the settings
   std::unique_ptr<algo::Algorithm> runner;  ///< the configured algorithm
