@@ -452,6 +452,24 @@ TEST(Config, ResolvedDerivedDefaultsEqualTheSameValuesWrittenExplicitly) {
   EXPECT_TRUE(experiment::same_settings(now, written, {}, &key)) << key;
 }
 
+// A key given no value (~ or empty) takes its default, the task's where the task sets one: a
+// config.yaml written when such keys were left empty (the task's choice) loads to the same values.
+TEST(Config, AKeyGivenNoValueTakesItsDefault) {
+  const auto& r = toy_registry();
+  const auto toy = experiment::load_settings(
+      r, "task: toy\npolicy: {bound: ~}\nmodel: {rprop: {penalty: ''}}\n",
+      {"optimizer.trust_region=", "optimizer.max_evaluations="});
+  EXPECT_EQ(toy.at("policy.bound"), "0.5");
+  EXPECT_EQ(toy.at("model.rprop.penalty"), "on");
+  EXPECT_EQ(toy.at("optimizer.trust_region"), "false");
+  EXPECT_EQ(toy.at("optimizer.max_evaluations"), "2000");
+  const auto old = settings("ite: {evaluations: ~, mutation: \"\", mutation_rate: ~}\n");
+  EXPECT_EQ(old, settings(""));
+  EXPECT_EQ(old.at("ite.evaluations"), "100000");
+  EXPECT_EQ(old.at("ite.mutation"), "polynomial");
+  EXPECT_EQ(settings("", {"ite.observation_floor="}).at("ite.observation_floor"), "");  // optional
+}
+
 TEST(Config, TheAlgorithmChoosesTheVariantAndItsKeys) {
   const auto direct = experiment::make_experiment(
       registry(), settings("", {"algorithm=direct", "optimizer.max_evaluations=40"}));

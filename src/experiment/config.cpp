@@ -85,9 +85,10 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     if (!n.IsScalar()) fail(s.key, text, "expected a string");
     return n.Scalar();
   }
+  // Any other key given no value (~ or empty) takes its default: the task's when the task sets
+  // one, "" for an optional key (whose help says what empty means).
+  if (n.IsNull() || (n.IsScalar() && n.Scalar().empty())) return s.default_value;
   if (s.type == "enum") {
-    // An enum whose default depends on the task (empty default) may be left empty.
-    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
     if (!n.IsScalar() ||
         std::find(s.allowed.begin(), s.allowed.end(), n.Scalar()) == s.allowed.end())
       fail(s.key, text, "allowed values: " + joined(s.allowed));
@@ -102,14 +103,12 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     fail(s.key, text, "expected true or false");
   }
   if (s.type == "int") {
-    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
     const double v = parse_double(s.key, n);
     if (v != std::floor(v)) fail(s.key, text, "expected an integer");
     check_range(s, v, text);
     return std::to_string(static_cast<long long>(v));
   }
   if (s.type == "double") {
-    if (s.default_value.empty() && (n.IsNull() || (n.IsScalar() && n.Scalar().empty()))) return "";
     const double v = parse_double(s.key, n);
     check_range(s, v, text);
     return n.Scalar();
