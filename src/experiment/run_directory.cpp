@@ -634,6 +634,16 @@ algo::RunState state_from_json(const nlohmann::json& j, const fs::path& cp) {
   }
 }
 
+/// Whether the dotted key is in the document with no value (~ or empty).
+bool left_empty(const YAML::Node& node, const std::string& dotted) {
+  if (!node.IsMap()) return false;
+  const auto dot = dotted.find('.');
+  const YAML::Node child = node[dotted.substr(0, dot)];
+  if (!child) return false;
+  if (dot == std::string::npos) return child.IsNull() || (child.IsScalar() && child.Scalar().empty());
+  return left_empty(child, dotted.substr(dot + 1));
+}
+
 /// The configuration the run was started with (checkpoint.json) against config.yaml as it is now
 /// (its text) and the experiment resolved from it.
 void check_config(const fs::path& dir, const nlohmann::json& started, const std::string& text,
@@ -641,8 +651,10 @@ void check_config(const fs::path& dir, const nlohmann::json& started, const std:
   const fs::path file = dir / "config.yaml";
   std::set<std::string> keys, present;
   for (const auto& [k, v] : started.items()) keys.insert(k);
+  YAML::Node doc;
   try {
-    yaml_keys(YAML::Load(text), "", keys, present);
+    doc = YAML::Load(text);
+    yaml_keys(doc, "", keys, present);
   } catch (const YAML::Exception& e) {
     throw RunDirectoryDamaged(file.string() + " cannot be parsed: " + e.what());
   }
@@ -655,6 +667,9 @@ void check_config(const fs::path& dir, const nlohmann::json& started, const std:
           "): the file was cut or edited; restore it (checkpoint.json holds the run's "
           "configuration under validation.config) or start the run again");
     if (kResumeKeys.count(k)) continue;
+    // Started empty and still left empty in config.yaml: the key's default, then as now (a run
+    // started when an empty value stood for the task's choice).
+    if (value.empty() && left_empty(doc, k)) continue;
     const auto it = now.find(k);
     const std::string current = it == now.end() ? std::string("(absent)") : it->second;
     if (it == now.end() || !same_setting_value(current, value))

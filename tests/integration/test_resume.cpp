@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -207,6 +208,51 @@ TEST(Resume, RefusesWhatItCannotContinue) {
   EXPECT_EQ(read_file(out / "one" / "episodes.csv"), csv);
   EXPECT_EQ(read_file(out / "one" / "summary.json"), summary);
   EXPECT_TRUE(fs::exists(out / "one" / "episodes" / "001" / "real.csv"));
+  fs::remove_all(out);
+}
+
+// A run started when an empty value stood for the task's choice (checkpoint.json's configuration
+// holds "", config.yaml ~) resumes: left empty, the key takes its default now as then; given a
+// value in config.yaml since, it is refused like any other change.
+TEST(Resume, ARunStartedWithAKeyLeftEmptyResumes) {
+  const fs::path out = fresh_dir("resume", "empty");
+  ASSERT_EQ(run_drops(kRun + " episodes=1 --output " + out.string() + " --name one -q"), 0);
+  const fs::path config = out / "one" / "config.yaml", checkpoint = out / "one" / "checkpoint.json";
+  const std::string text = read_file(config);
+  const std::string line = "\n  evaluations: 100000\n";
+  const auto at = text.find(line);
+  ASSERT_NE(at, std::string::npos) << text;
+  nlohmann::json cp = read_json(checkpoint);
+  ASSERT_EQ(cp["validation"]["config"]["ite.evaluations"], "100000");
+  cp["validation"]["config"]["ite.evaluations"] = "";
+  // Signed again as drops signs it: the sha256 of the document without its checksum.
+  cp.erase("checksum");
+  const fs::path unsigned_cp = out / "unsigned.json";
+  drops::cli_test::write_file(unsigned_cp, cp.dump());
+  std::string sum;
+  {
+    FILE* p = ::popen(("sha256sum " + unsigned_cp.string()).c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    char hex[65] = {};
+    ASSERT_EQ(std::fread(hex, 1, 64, p), 64u);
+    ::pclose(p);
+    sum = hex;
+  }
+  cp["checksum"] = sum;
+  drops::cli_test::write_file(checkpoint, cp.dump() + "\n");
+  const auto with = [&](const std::string& value) {
+    drops::cli_test::write_file(config, text.substr(0, at) + "\n  evaluations: " + value + "\n" +
+                                            text.substr(at + line.size()));
+  };
+  std::string err;
+  with("5");
+  EXPECT_EQ(run_drops("run --resume " + (out / "one").string() + " episodes=2 -q", &err), 2);
+  EXPECT_NE(err.find("key 'ite.evaluations' is '5', but the run was started with ''"),
+            std::string::npos)
+      << err;
+  with("~");
+  EXPECT_EQ(run_drops("run --resume " + (out / "one").string() + " episodes=2 -q", &err), 0)
+      << err;
   fs::remove_all(out);
 }
 
