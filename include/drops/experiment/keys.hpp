@@ -67,10 +67,12 @@ class KeyTable {
       row_->spec.max = hi;
       return *this;
     }
+    /// Physical unit, e.g. "m" ("-", the default, when none).
     Key& unit(std::string u) {
       row_->spec.unit = std::move(u);
       return *this;
     }
+    /// The key's meaning, one line for the schema and docs/configuration.md.
     Key& help(std::string doc) {
       row_->spec.doc = std::move(doc);
       return *this;
