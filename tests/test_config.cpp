@@ -375,7 +375,8 @@ TEST(Config, ATasksDefaultIsValidatedByTheKeysDeclarationAndIsItsSchemasDefault)
       experiment::schema(reg, task);
       ADD_FAILURE() << task << "'s default was accepted";
     } catch (const ConfigError& e) {
-      for (const auto& w : words) EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
+      for (const auto& w : words)
+        EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
     }
   }
 }

@@ -44,12 +44,6 @@ const drops::experiment::KeyTable<CartPoleKeys>& key_table() {
   return t;
 }
 
-CartPoleKeys keys_of(const drops::experiment::Settings& st) {
-  CartPoleKeys k;
-  key_table().apply(st, k);
-  return k;
-}
-
 class CartPolePlugin final : public drops::experiment::TaskPlugin {
  public:
   std::string name() const override { return "cartpole"; }
@@ -59,7 +53,7 @@ class CartPolePlugin final : public drops::experiment::TaskPlugin {
   }
   std::vector<drops::experiment::KeySpec> keys() const override { return key_table().specs(); }
   drops::experiment::TaskSetup make(const drops::experiment::Settings& st) const override {
-    const CartPoleKeys k = keys_of(st);
+    const CartPoleKeys k = key_table().read(st);
     Options o = k.task;
     const Params real = k.real;
     o.goal_length = real.pole_length;

@@ -167,7 +167,8 @@ KeyTable<BaseOptions> make_base_key_table() {
             "policy of the best real episode, evaluates it on the current model like any "
             "candidate and runs it again unless a candidate beats it (as the reference's CMA-ES "
             "wrapper); false = the start only centres the first CMA-ES run");
-  t.add("optimizer.trust_region", [](auto& o) -> auto& { return o.black_drops.trust_region.enabled; })
+  t.add("optimizer.trust_region",
+        [](auto& o) -> auto& { return o.black_drops.trust_region.enabled; })
       .help("from episode 2 on, search only within r * policy.bound of the best real policy, "
             "with CMA-ES's sigma0 scaled by r (r = 1: the whole box); r starts at 1, doubles "
             "after a new policy beat the best real return and halves after one that did not "
@@ -239,10 +240,6 @@ const KeyTable<policy::NeuralNetPolicyOptions>& neural_net_policy_key_table() {
   return t;
 }
 
-BaseOptions base_options(const Settings& settings) {
-  BaseOptions o;
-  base_key_table().apply(settings, o);
-  return o;
-}
+BaseOptions base_options(const Settings& settings) { return base_key_table().read(settings); }
 
 }  // namespace drops::experiment

@@ -186,10 +186,8 @@ class DirectPlugin final : public AlgorithmPlugin {
     o.seed = base.seed;
     o.theta_bound = base.search.theta_bound;
     o.cmaes = base.search.cmaes;
-    DirectKeys own;
-    key_table().apply(s, own);
-    if (!own.start.empty())
-      o.start = read_start(own.start, setup.policy->param_dim(), o.theta_bound);
+    const std::string start = key_table().read(s).start;
+    if (!start.empty()) o.start = read_start(start, setup.policy->param_dim(), o.theta_bound);
     std::string why;
     if (!o.IsValid(&why)) throw ConfigError("config: " + why);
     return std::make_unique<algo::DirectSearch>(o);

@@ -144,12 +144,6 @@ const KeyTable<IteKeys>& ite_key_table() {
   return t;
 }
 
-IteKeys ite_keys(const Settings& s) {
-  IteKeys k;
-  ite_key_table().apply(s, k);
-  return k;
-}
-
 /// FNV-1a, 64 bits: the archive cache's key of a settings text (not for security).
 std::uint64_t fnv1a(const std::string& text) {
   std::uint64_t h = 0xcbf29ce484222325ULL;
@@ -178,7 +172,7 @@ fs::path cache_file(const Settings& s, const TaskSetup& setup) {
   std::string prior = setup.prior_label;
   for (char& c : prior)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
-  return fs::path(ite_keys(s).archive_cache) /
+  return fs::path(ite_key_table().read(s).archive_cache) /
          fmt::format("{}-{}-seed{}-{:016x}.csv", s.at("task"), prior, s.at("seed"), fnv1a(text));
 }
 
@@ -228,7 +222,7 @@ class ItePlugin final : public AlgorithmPlugin {
   bool uses_prior(const Settings&) const override { return true; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
     algo::IteOptions o = ite_options(s, setup);
-    const std::string cache = ite_keys(s).archive_cache;
+    const std::string cache = ite_key_table().read(s).archive_cache;
     if (cache.empty() || o.archive) return std::make_unique<algo::Ite>(o);
     const fs::path file = cache_file(s, setup);
     if (fs::exists(file)) {
@@ -250,7 +244,7 @@ algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
     throw ConfigError("config key 'algorithm' = 'ite': the task '" + task +
                       "' has no behaviour descriptor for IT&E's archive; choose another "
                       "algorithm or give the task one (TaskSetup::behaviour)");
-  const IteKeys keys = ite_keys(s);
+  const IteKeys keys = ite_key_table().read(s);
   const algo::BlackDropsOptions base = base_options(s).black_drops;
   algo::IteOptions o = keys.ite;
   o.episodes = base.episodes;

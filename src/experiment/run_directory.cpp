@@ -640,7 +640,8 @@ bool left_empty(const YAML::Node& node, const std::string& dotted) {
   const auto dot = dotted.find('.');
   const YAML::Node child = node[dotted.substr(0, dot)];
   if (!child) return false;
-  if (dot == std::string::npos) return child.IsNull() || (child.IsScalar() && child.Scalar().empty());
+  if (dot == std::string::npos)
+    return child.IsNull() || (child.IsScalar() && child.Scalar().empty());
   return left_empty(child, dotted.substr(dot + 1));
 }
 

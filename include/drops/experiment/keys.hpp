@@ -13,9 +13,9 @@
 ///     t.specs();          // KeySpecs: "my.rate" double default "0.5" (MyOptions{}.rate) ...
 ///     t.apply(settings, options);  // options.rate = 0.3 for settings {my.rate: "0.3"}
 
+#include <array>
 #include <deque>
 #include <functional>
-#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -108,7 +108,7 @@ class KeyTable {
     template <class Field>
     Key& also(Field other) {
       row_->set = [set = std::move(row_->set), field = field_, other](const Settings& s,
-                                                                       Options& o) {
+                                                                      Options& o) {
         set(s, o);
         std::invoke(other, o) = std::invoke(field, o);
       };
@@ -185,6 +185,14 @@ class KeyTable {
       if (!r.optional || !settings.at(r.spec.key).empty()) r.set(settings, options);
   }
 
+  /// A default-constructed Options with every declared field set from settings (apply()). Throws
+  /// as apply(). Thread-safe.
+  Options read(const Settings& settings) const {
+    Options options;
+    apply(settings, options);
+    return options;
+  }
+
  private:
   template <class>
   friend class KeyTable;
@@ -196,14 +204,22 @@ class KeyTable {
 
   template <class T>
   static std::string type_name() {
-    if constexpr (is_optional<T>::value) return type_name<typename T::value_type>();
-    else if constexpr (std::is_same_v<T, Interval>) return "interval";
-    else if constexpr (std::is_same_v<T, Names>) return "names";
-    else if constexpr (std::is_same_v<T, bool>) return "bool";
-    else if constexpr (std::is_integral_v<T>) return "int";
-    else if constexpr (std::is_floating_point_v<T>) return "double";
-    else if constexpr (std::is_same_v<T, std::string>) return "string";
-    else return "enum";  // values() names them
+    if constexpr (is_optional<T>::value)
+      return type_name<typename T::value_type>();
+    else if constexpr (std::is_same_v<T, Interval>)
+      return "interval";
+    else if constexpr (std::is_same_v<T, Names>)
+      return "names";
+    else if constexpr (std::is_same_v<T, bool>)
+      return "bool";
+    else if constexpr (std::is_integral_v<T>)
+      return "int";
+    else if constexpr (std::is_floating_point_v<T>)
+      return "double";
+    else if constexpr (std::is_same_v<T, std::string>)
+      return "string";
+    else
+      return "enum";  // values() names them
   }
 
   template <class T>
@@ -221,11 +237,16 @@ class KeyTable {
       std::string t;
       for (const auto& n : v) t += (t.empty() ? "" : ", ") + n;
       return "[" + t + "]";
-    } else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
-    else if constexpr (std::is_integral_v<T>) return key_text(static_cast<long long>(v));
-    else if constexpr (std::is_floating_point_v<T>) return key_text(static_cast<double>(v));
-    else if constexpr (std::is_same_v<T, std::string>) return v;
-    else return "";
+    } else if constexpr (std::is_same_v<T, bool>)
+      return v ? "true" : "false";
+    else if constexpr (std::is_integral_v<T>)
+      return key_text(static_cast<long long>(v));
+    else if constexpr (std::is_floating_point_v<T>)
+      return key_text(static_cast<double>(v));
+    else if constexpr (std::is_same_v<T, std::string>)
+      return v;
+    else
+      return "";
   }
 
   template <class T>
@@ -241,12 +262,18 @@ class KeyTable {
     } else if constexpr (std::is_same_v<T, Interval>) {
       const std::vector<double> v = get_interval(s, key);
       return Interval{v[0], v[1]};
-    } else if constexpr (std::is_same_v<T, Names>) return get_names(s, key);
-    else if constexpr (std::is_same_v<T, bool>) return get_bool(s, key);
-    else if constexpr (std::is_integral_v<T>) return static_cast<T>(get_int(s, key));
-    else if constexpr (std::is_floating_point_v<T>) return static_cast<T>(get_double(s, key));
-    else if constexpr (std::is_same_v<T, std::string>) return s.at(key);
-    else return choices.at(0).second;  // not reached: choice_index threw
+    } else if constexpr (std::is_same_v<T, Names>)
+      return get_names(s, key);
+    else if constexpr (std::is_same_v<T, bool>)
+      return get_bool(s, key);
+    else if constexpr (std::is_integral_v<T>)
+      return static_cast<T>(get_int(s, key));
+    else if constexpr (std::is_floating_point_v<T>)
+      return static_cast<T>(get_double(s, key));
+    else if constexpr (std::is_same_v<T, std::string>)
+      return s.at(key);
+    else
+      return choices.at(0).second;  // not reached: choice_index threw
   }
 
   std::deque<Row> rows_;  // a deque: add() hands out pointers to its rows

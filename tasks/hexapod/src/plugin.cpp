@@ -137,12 +137,6 @@ const experiment::KeyTable<HexapodKeys>& key_table() {
   return t;
 }
 
-HexapodKeys keys_of(const Settings& st) {
-  HexapodKeys k;
-  key_table().apply(st, k);
-  return k;
-}
-
 class HexapodPlugin final : public experiment::TaskPlugin {
  public:
   std::string name() const override { return "hexapod"; }
@@ -191,7 +185,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
   }
 
   experiment::TaskSetup make(const Settings& st) const override {
-    const HexapodKeys k = keys_of(st);
+    const HexapodKeys k = key_table().read(st);
     const experiment::BaseOptions base = experiment::base_options(st);
     experiment::TaskSetup s;
     // The prior family: phi = [removed_leg], one discrete tunable entry (paper §V-B: 7 priors).
@@ -353,7 +347,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
 }  // namespace
 
 HexapodSpec real_robot_spec(const Settings& st) {
-  const HexapodKeys k = keys_of(st);
+  const HexapodKeys k = key_table().read(st);
   HexapodSpec spec = HexapodSpec::with_leg_removed(k.removed_leg);
   if (k.shortened_leg >= 0)
     spec.legs[static_cast<std::size_t>(k.shortened_leg)].tibia_length_factor = k.tibia_factor;

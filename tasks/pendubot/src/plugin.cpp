@@ -126,12 +126,6 @@ const experiment::KeyTable<PendubotKeys>& key_table() {
   return t;
 }
 
-PendubotKeys keys_of(const Settings& st) {
-  PendubotKeys k;
-  key_table().apply(st, k);
-  return k;
-}
-
 class PendubotPlugin final : public experiment::TaskPlugin {
  public:
   std::string name() const override { return "pendubot"; }
@@ -150,7 +144,7 @@ class PendubotPlugin final : public experiment::TaskPlugin {
   std::vector<KeySpec> keys() const override { return key_table().specs(); }
 
   experiment::TaskSetup make(const Settings& st) const override {
-    const PendubotKeys k = keys_of(st);
+    const PendubotKeys k = key_table().read(st);
     TaskOptions to = k.task;
     // Three control periods at least: IT&E's behaviour descriptor reads the tip at three steps.
     if (to.duration < 3 * to.dt)
@@ -227,12 +221,14 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     return s;
   }
 
-  std::string prior_label(const Settings& st) const override { return keys_of(st).preset; }
+  std::string prior_label(const Settings& st) const override {
+    return key_table().read(st).preset;
+  }
 
   experiment::ReportInfo report_info(const Settings& st) const override {
     experiment::ReportInfo r;
     experiment::Panel& p = r.panel;
-    const PendubotKeys k = keys_of(st);
+    const PendubotKeys k = key_table().read(st);
     p.label = k.preset;
     const auto it = std::find(kPanelOrder.begin(), kPanelOrder.end(), p.label);
     p.rank = it == kPanelOrder.end() ? 100 : static_cast<int>(it - kPanelOrder.begin());
