@@ -138,9 +138,8 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--episodes", type=int, default=5)
     args = parser.parse_args()
-    # rollouts.batch: 64 rollouts per call of the numpy callbacks (a CMA-ES generation at once);
-    # a smaller policy-search budget than the pendubot's suffices for this 51-parameter policy.
-    settings = {"model.type": "gp_mi", "episodes": args.episodes, "rollouts.batch": 64,
+    # A smaller policy-search budget than the pendubot's suffices for this 51-parameter policy.
+    settings = {"model.type": "gp_mi", "episodes": args.episodes,
                 "optimizer.max_evaluations": 2000}
     out = drops.run(overrides=settings,
                     seed=args.seed, output=args.output,

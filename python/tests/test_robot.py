@@ -6,6 +6,7 @@ episodes with 1 and 2 threads; the algorithms that need only a task, a system an
 
 import csv
 import json
+import re
 import sys
 
 import numpy as np
@@ -33,7 +34,7 @@ def rows(directory):
 
 
 def test_gp_mi_identifies_the_examples_prior_and_swings_the_pendulum_up(tmp_path):
-    settings = {"model.type": "gp_mi", "episodes": 4, "rollouts.batch": 64,
+    settings = {"model.type": "gp_mi", "episodes": 4,
                 "optimizer.max_evaluations": 1500, "optimizer.prior_optimizations": 1}
     out = drops.run(overrides=settings, seed=1, output=tmp_path, name="learn", quiet=True,
                     progress=lambda line: None, **robot())
@@ -47,6 +48,9 @@ def test_gp_mi_identifies_the_examples_prior_and_swings_the_pendulum_up(tmp_path
     np.testing.assert_allclose(run.episodes["phi"][-1], [1.0, 1.0], rtol=0.1)
     x = run.real(1).x
     assert x.shape == (41, 2) and run.state_names == ["dtheta", "theta"]
+    # A task written in Python batches 64 rollouts per call by default (the built-in tasks 8).
+    config = (tmp_path / "learn" / "config.yaml").read_text()
+    assert re.search(r"\nrollouts:\n(  .*\n)*?  batch: 64\n", config), config
 
 
 class Broken(Exception):
