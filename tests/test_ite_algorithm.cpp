@@ -100,7 +100,8 @@ class TempDir {
 
 TEST(IteAlgorithm, ThePendubotPluginDescribesEpisodesByTheTipOfThePriorsLengths) {
   const auto e = make({"prior.preset=tunable-misleading"});  // l2 = 0.25 in the prior
-  const auto& b = e.setup.behaviour;
+  ASSERT_NE(experiment::task_behaviour(e.setup), nullptr);
+  const auto& b = *experiment::task_behaviour(e.setup);
   ASSERT_TRUE(b.available());
   EXPECT_EQ(b.bins, std::vector<int>(6, 5));
   EXPECT_EQ(b.names.size(), 6u);
@@ -244,7 +245,7 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   EXPECT_TRUE(file.info.complete);
   EXPECT_TRUE(*file.archive == *whole.archive.archive);
   EXPECT_EQ(file.info.task, "pendubot");
-  EXPECT_EQ(file.info.descriptor_names, e.setup.behaviour.names);
+  EXPECT_EQ(file.info.descriptor_names, experiment::task_behaviour(e.setup)->names);
   EXPECT_EQ(file.info.cursor.evaluations, 1500);
 
   // ite.archive: a run adapting with the saved archive makes the same trials, without MAP-Elites.
@@ -314,6 +315,20 @@ TEST(IteAlgorithm, TheArchiveCacheIsSharedByRunsThatDifferOnlyInTheRealSystem) {
             3);
 }
 
+TEST(IteAlgorithm, ATasksEntryOfAnotherTypeIsAnErrorNotAMissingDescriptor) {
+  experiment::TaskSetup setup;
+  EXPECT_EQ(experiment::task_behaviour(setup), nullptr);
+  setup.algorithm_data.set("ite", 3);  // a task that disagrees with IT&E on the entry's type
+  EXPECT_THROW(experiment::task_behaviour(setup), Error);
+  ite::BehaviourDescriptor b;
+  b.names = {"x"};
+  setup.algorithm_data.set("ite", b);
+  ASSERT_NE(experiment::task_behaviour(setup), nullptr);
+  EXPECT_EQ(experiment::task_behaviour(setup)->names, b.names);
+  setup.algorithm_data.erase("ite");
+  EXPECT_EQ(experiment::task_behaviour(setup), nullptr);
+}
+
 // A task that offers no behaviour descriptor: the pendubot without it.
 class NoDescriptorTask final : public experiment::TaskPlugin {
  public:
@@ -325,7 +340,7 @@ class NoDescriptorTask final : public experiment::TaskPlugin {
     p["task"] = "pendubot";
     experiment::TaskSetup setup =
         fixtures::registry().task("pendubot").make(fixtures::settings("", {"task=pendubot"}));
-    setup.behaviour = {};
+    setup.algorithm_data.erase("ite");
     return setup;
   }
   std::string prior_label(const experiment::Settings&) const override { return "p"; }

@@ -355,7 +355,7 @@ TEST(PilcoExperiment, ThePendubotRunsPilcoAndPilcoWithPriorsFromItsSettings) {
 }
 
 namespace {
-/// A task without a PILCO description (TaskSetup::pilco empty).
+/// A task without a PILCO description (no "pilco" entry in TaskSetup::algorithm_data).
 class NoPilcoTask final : public drops::experiment::TaskPlugin {
  public:
   std::string name() const override { return "nopilco"; }

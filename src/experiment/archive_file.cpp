@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/experiment.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/ite/archive_io.hpp"
@@ -35,8 +36,10 @@ ArchiveFileInfo archive_file_info(const std::string& task, const TaskSetup& setu
   ArchiveFileInfo info;
   info.task = task;
   info.prior = setup.prior_label;
-  info.descriptor_names = setup.behaviour.names;
-  info.descriptor_doc = setup.behaviour.doc;
+  if (const ite::BehaviourDescriptor* behaviour = task_behaviour(setup)) {
+    info.descriptor_names = behaviour->names;
+    info.descriptor_doc = behaviour->doc;
+  }
   if (setup.task)
     info.fitness_doc = fmt::format(
         "the return of an episode of {} steps of {} s on the prior {} (deterministic)",

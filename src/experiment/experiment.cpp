@@ -241,7 +241,8 @@ class DirectPlugin final : public AlgorithmPlugin {
 };
 
 /// PILCO (with_prior false) and PILCO with priors (algo::Pilco), on tasks that describe themselves
-/// to PILCO (TaskSetup::pilco). The "pilco" plugin owns the pilco.* keys; both read them.
+/// to PILCO (a pilco::TaskModel under "pilco" in TaskSetup::algorithm_data). The "pilco" plugin
+/// owns the pilco.* keys; both read them.
 class PilcoPlugin final : public AlgorithmPlugin {
  public:
   explicit PilcoPlugin(bool with_prior) : with_prior_(with_prior) {}
@@ -265,18 +266,20 @@ class PilcoPlugin final : public AlgorithmPlugin {
   bool uses_prior(const Settings&) const override { return with_prior_; }
   std::unique_ptr<algo::Algorithm> make(const Settings& s, const TaskSetup& setup) const override {
     const std::string head = "config key 'algorithm' = '" + name() + "': ";
-    if (!setup.pilco)
+    const auto* task_model = setup.algorithm_data.find<pilco::TaskModel>("pilco");
+    if (!task_model)
       throw ConfigError(head + "task '" + s.at("task") +
-                        "' does not describe itself to PILCO (TaskSetup::pilco: its angles, the "
-                        "inputs of the policy and the GP, the cost); choose another algorithm");
+                        "' does not describe itself to PILCO (a pilco::TaskModel under \"pilco\" "
+                        "in TaskSetup::algorithm_data: its angles, the inputs of the policy and "
+                        "the GP, the cost); choose another algorithm");
     if (with_prior_ && !setup.prior)
       throw ConfigError(head + "task '" + s.at("task") + "' has no simulator prior; use pilco");
     const algo::PilcoOptions o = pilco_options(s, with_prior_);
-    if (o.cost_width == 0.0 && !(setup.pilco->reward_width > 0))
+    if (o.cost_width == 0.0 && !(task_model->reward_width > 0))
       throw ConfigError("config key 'pilco.cost_width' is empty but task '" + s.at("task") +
                         "' gives no reward width: set it");
     try {
-      return std::make_unique<algo::Pilco>(o, *setup.pilco);
+      return std::make_unique<algo::Pilco>(o, *task_model);
     } catch (const InvalidArgument& e) {
       throw ConfigError(head + e.what());
     }

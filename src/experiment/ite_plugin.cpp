@@ -238,25 +238,31 @@ class ItePlugin final : public AlgorithmPlugin {
 
 }  // namespace
 
+const ite::BehaviourDescriptor* task_behaviour(const TaskSetup& setup) {
+  return setup.algorithm_data.find<ite::BehaviourDescriptor>("ite");
+}
+
 algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
   const std::string task = s.at("task");
-  if (!setup.behaviour.available())
+  const ite::BehaviourDescriptor* behaviour = task_behaviour(setup);
+  if (!behaviour)
     throw ConfigError("config key 'algorithm' = 'ite': the task '" + task +
                       "' has no behaviour descriptor for IT&E's archive; choose another "
-                      "algorithm or give the task one (TaskSetup::behaviour)");
+                      "algorithm or give the task one (an ite::BehaviourDescriptor under "
+                      "\"ite\" in TaskSetup::algorithm_data)");
   const IteKeys keys = ite_key_table().read(s);
   const algo::BlackDropsOptions base = base_options(s).black_drops;
   algo::IteOptions o = keys.ite;
   o.episodes = base.episodes;
   o.seed = base.seed;
   o.theta_bound = base.search.theta_bound;
-  o.behaviour = setup.behaviour;
+  o.behaviour = *behaviour;
   try {
     o.behaviour.check();
   } catch (const InvalidArgument& e) {
     throw ConfigError("task '" + task + "': " + e.what());
   }
-  if (keys.bins > 0) o.bins.assign(setup.behaviour.bins.size(), keys.bins);
+  if (keys.bins > 0) o.bins.assign(behaviour->bins.size(), keys.bins);
   o.checkpoint_seconds = 60 * keys.checkpoint_minutes;
 
   const std::string& path = keys.archive;
@@ -272,7 +278,7 @@ algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
       throw ConfigError(key + "a snapshot of a MAP-Elites run in progress (" +
                         std::to_string(f.info.cursor.evaluations) +
                         " evaluations), not a finished archive; resume that run first");
-    const auto k = static_cast<int>(setup.behaviour.bins.size());
+    const auto k = static_cast<int>(behaviour->bins.size());
     if (f.archive->descriptor_dim() != k)
       throw ConfigError(key + fmt::format("the archive has {} descriptor dimensions; the task "
                                           "'{}' has {}",

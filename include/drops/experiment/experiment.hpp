@@ -78,8 +78,11 @@ Experiment make_experiment(const Registry& registry, const Settings& settings);
 /// model variant is not registered.
 algo::BlackDropsOptions black_drops_options(const Registry& registry, const Settings& settings);
 
+/// IT&E's behaviour descriptor of a task: its "ite" entry in TaskSetup::algorithm_data, or null
+/// when the task offers none. Throws drops::Error when that entry has another type.
+const ite::BehaviourDescriptor* task_behaviour(const TaskSetup& setup);
 /// The options of IT&E from settings (ite.*, policy.bound, episodes, seed) and the task's
-/// behaviour descriptor (setup.behaviour); reads the archive file of ite.archive. Throws
+/// behaviour descriptor (task_behaviour); reads the archive file of ite.archive. Throws
 /// ConfigError naming the task when it has no behaviour descriptor, and naming the key for an
 /// invalid value or an archive file that cannot be read or does not fit the task.
 algo::IteOptions ite_options(const Settings& settings, const TaskSetup& setup);

@@ -6,6 +6,7 @@
 /// algo::Algorithm. Registration is explicit: the application's main() calls each task's
 /// register function (e.g. my_robot::register_task(registry)); nothing registers itself.
 
+#include <any>
 #include <functional>
 #include <limits>
 #include <map>
@@ -16,9 +17,8 @@
 
 #include "drops/algo/algorithm.hpp"
 #include "drops/algo/black_drops.hpp"
+#include "drops/core/errors.hpp"
 #include "drops/experiment/config.hpp"
-#include "drops/ite/behaviour.hpp"
-#include "drops/pilco/task_model.hpp"
 
 namespace drops::experiment {
 
@@ -118,6 +118,36 @@ struct ModelVariant {
   algo::ModelFactory factory;
 };
 
+/// What a task offers particular algorithms (TaskSetup::algorithm_data): one entry per algorithm
+/// that needs more than the task, the real system, the policy and the prior, of a type that
+/// algorithm defines, under the algorithm's name. A new algorithm brings its own entry type
+/// without a change to TaskSetup. Setting is not thread-safe; finding is.
+class AlgorithmData {
+ public:
+  /// Sets (or replaces) the entry of `algorithm` to `value`.
+  template <class T>
+  void set(const std::string& algorithm, T value) {
+    entries_[algorithm] = std::move(value);
+  }
+  /// The entry of `algorithm`, or null when the task gave none. Throws drops::Error when the
+  /// entry is not a T (the task and the algorithm disagree on its type).
+  template <class T>
+  const T* find(const std::string& algorithm) const {
+    const auto it = entries_.find(algorithm);
+    if (it == entries_.end()) return nullptr;
+    const T* value = std::any_cast<T>(&it->second);
+    if (!value)
+      throw Error("the task's entry for algorithm '" + algorithm + "' is a " +
+                  it->second.type().name() + ", not the type the algorithm reads");
+    return value;
+  }
+  /// Removes the entry of `algorithm` (no-op when there is none).
+  void erase(const std::string& algorithm) { entries_.erase(algorithm); }
+
+ private:
+  std::map<std::string, std::any> entries_;
+};
+
 /// Everything an experiment needs about its task, built by TaskPlugin::make.
 struct TaskSetup {
   std::shared_ptr<const rollout::Task> task;
@@ -140,18 +170,17 @@ struct TaskSetup {
   /// per name. May be empty.
   std::vector<std::string> state_extra_names;
   std::function<std::vector<double>(const VectorXd&)> state_extras;
-  /// The task's behaviour descriptor for IT&E's MAP-Elites archive, computed on episodes of the
-  /// prior at the starting phi (optional: empty when the task offers none, and algorithm=ite
-  /// then refuses the task).
-  ite::BehaviourDescriptor behaviour;
   /// The task's keys that change only the real system, not the task, the policy family or the
   /// prior (e.g. a robot's damage): settings that differ only in them share an IT&E archive
   /// (ite.archive_cache). Empty: every task key is assumed to matter.
   std::vector<std::string> real_system_keys;
-  /// What PILCO needs beyond the task (angles, inputs of the policy and the GP in PILCO's
-  /// augmented space, the cost's target and distance, Sigma_0): tasks that PILCO can run on fill
-  /// it; without it, algorithm=pilco and pilco_prior are refused with a ConfigError.
-  std::optional<pilco::TaskModel> pilco;
+  /// What the task offers particular algorithms beyond the pieces above, each algorithm's own
+  /// type under its own name: the built-in ones read "ite" (ite::BehaviourDescriptor, IT&E's
+  /// behaviour descriptor, computed on episodes of the prior at the starting phi) and "pilco"
+  /// (pilco::TaskModel: angles, the inputs of the policy and the GP in PILCO's augmented space,
+  /// the cost's target and distance, Sigma_0; read by pilco and pilco_prior). An algorithm
+  /// refuses a task without its entry with a ConfigError.
+  AlgorithmData algorithm_data;
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };
@@ -269,7 +298,7 @@ class Registry {
 /// gp, declared in one table with their labels, report order and colours), "direct" (the direct
 /// search on the real system), "ite" (IT&E: MAP-Elites on the prior, M-BOA on the real system;
 /// tasks with a behaviour descriptor), "pilco" and "pilco_prior" (PILCO and PILCO with priors, on
-/// tasks with TaskSetup::pilco; keys pilco.*).
+/// tasks with a "pilco" entry in TaskSetup::algorithm_data; keys pilco.*).
 void register_builtin_algorithms(Registry& registry);
 
 }  // namespace drops::experiment

@@ -1,7 +1,8 @@
 #pragma once
 /// \file What a task gives MAP-Elites (drops/ite/map_elites.hpp) about the behaviour of an
 /// episode: the behaviour descriptor of a trajectory, the grid over it and which episodes count.
-/// A task that offers IT&E fills one (experiment::TaskSetup::behaviour); docs/ite.md describes
+/// A task that offers IT&E sets one under "ite" in experiment::TaskSetup::algorithm_data;
+/// docs/ite.md describes
 /// the descriptors of the shipped tasks.
 
 #include <functional>

@@ -3,7 +3,7 @@
 /// entries are angles, what the policy and the GP see in PILCO's augmented space, the saturating
 /// cost's target and distance, the initial state distribution and the policy's initial length
 /// scales (baselines.md §1a, "State bookkeeping" and "Saturating cost"). A task provides it
-/// (experiment::TaskSetup::pilco); algo::Pilco uses it.
+/// under "pilco" in experiment::TaskSetup::algorithm_data; algo::Pilco uses it.
 
 #include <Eigen/Core>
 #include <string>

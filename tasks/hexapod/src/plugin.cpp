@@ -11,6 +11,7 @@
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/hexapod/ite_descriptor.hpp"
+#include "drops/ite/behaviour.hpp"
 #include "drops/hexapod/policy.hpp"
 #include "drops/hexapod/prior.hpp"
 #include "drops/hexapod/real_robot.hpp"
@@ -264,7 +265,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
 
     // IT&E's behaviour descriptor: the duty factor on the prior (the starting removed leg), the
     // turned-over robots discarded (docs/ite.md).
-    auto& b = s.behaviour;
+    ite::BehaviourDescriptor b;
     for (int k = 0; k < kNumLegs; ++k) b.names.push_back(fmt::format("duty_leg{}", k));
     b.bins.assign(kNumLegs, 5);  // 5^6 = 15,625 cells, the reference grid
     const DutyFactorOptions df = k.duty;
@@ -278,6 +279,7 @@ class HexapodPlugin final : public experiment::TaskPlugin {
         "foot is at most {} m above the ground on the prior; a removed leg 0; episodes in which "
         "the body tilted {:.0f} degrees or more are discarded",
         to.horizon, to.dt, df.contact_height, to.tilt_limit * 180 / 3.14159265358979323846);
+    s.algorithm_data.set("ite", std::move(b));
     s.real_system_keys = {"hexapod.damage.removed_leg",   "hexapod.damage.shortened_leg",
                           "hexapod.damage.tibia_factor",  "hexapod.damage.blocked_leg",
                           "hexapod.damage.blocked_joint", "hexapod.damage.blocked_angle",

@@ -37,13 +37,14 @@ VectorXd theta_of(const VectorXd& gait) { return gait.array() - 0.5; }
 VectorXd duty(const experiment::Experiment& e, const VectorXd& gait, rollout::Trajectory* out = nullptr) {
   const rollout::Trajectory tr = algo::prior_episode(e.setup.problem(), theta_of(gait));
   if (out) *out = tr;
-  return e.setup.behaviour.describe(tr);
+  return experiment::task_behaviour(e.setup)->describe(tr);
 }
 }  // namespace
 
 TEST(HexapodIte, ThePluginGivesTheSixDimensionalDutyFactorOnAFiveBinGrid) {
   const auto e = make();
-  const auto& b = e.setup.behaviour;
+  ASSERT_NE(experiment::task_behaviour(e.setup), nullptr);
+  const auto& b = *experiment::task_behaviour(e.setup);
   ASSERT_TRUE(b.available());
   EXPECT_EQ(b.bins, std::vector<int>(6, 5));
   EXPECT_EQ(b.names.front(), "duty_leg0");
@@ -76,7 +77,7 @@ TEST(HexapodIte, ATripodGaitGivesAboutHalfOnAverageWithSymmetricMirrorLegs) {
   EXPECT_NEAR(b[1], b[4], 0.1);
   EXPECT_NEAR(b[2], b[3], 0.1 + 1e-12);
   EXPECT_GT(b[2] + b[3], b[0] + b[5]);
-  EXPECT_TRUE(e.setup.behaviour.alive(tr));
+  EXPECT_TRUE(experiment::task_behaviour(e.setup)->alive(tr));
   // A multiple of 1/40: 40 sampled states.
   for (int k = 0; k < 6; ++k) EXPECT_NEAR(b[k] * 40, std::round(b[k] * 40), 1e-9);
 }
@@ -108,13 +109,13 @@ TEST(HexapodIte, ARobotOnItsBackIsNotAliveAndANonFiniteStateGivesNaN) {
   rollout::Trajectory flipped = tr;
   flipped.states(20, hexapod::kBodyRpy) = 3.0;  // roll: on its back
   EXPECT_FALSE(hexapod::stayed_upright(flipped, std::numbers::pi / 2));
-  EXPECT_FALSE(e.setup.behaviour.alive(flipped));
+  EXPECT_FALSE(experiment::task_behaviour(e.setup)->alive(flipped));
   rollout::Trajectory broken = tr;
   broken.states(7, 3) = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_TRUE(e.setup.behaviour.describe(broken).array().isNaN().all());
+  EXPECT_TRUE(experiment::task_behaviour(e.setup)->describe(broken).array().isNaN().all());
   rollout::Trajectory wrong;
   wrong.states = MatrixXd::Zero(5, 4);
-  EXPECT_THROW(e.setup.behaviour.describe(wrong), InvalidArgument);
+  EXPECT_THROW(experiment::task_behaviour(e.setup)->describe(wrong), InvalidArgument);
 }
 
 TEST(HexapodIte, ATinyRunBuildsAnArchiveOnThePriorAndRunsOneRealTrial) {

@@ -8,8 +8,10 @@
 #include "drops/core/errors.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
+#include "drops/ite/behaviour.hpp"
 #include "drops/pendubot/ite_descriptor.hpp"
 #include "drops/pendubot/pendubot.hpp"
+#include "drops/pilco/task_model.hpp"
 #include "drops/policy/policy.hpp"
 
 namespace drops::pendubot {
@@ -202,14 +204,14 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     s.prior = std::make_shared<PendubotPrior>(to);
     s.phi_actual.assign(actual_phi.data(), actual_phi.data() + actual_phi.size());
     s.prior_label = prior_label(st);
-    s.pilco = pilco_task_model(to);
+    s.algorithm_data.set("pilco", pilco_task_model(to));
     s.state_names = {"dtheta1", "dtheta2", "theta1", "theta2"};
     s.action_names = {"u"};
 
     // IT&E's behaviour descriptor: the tip at 3 equally spaced times (paper §V-A), with the
     // lengths of the prior the archive is built on (docs/ite.md).
     const double l1 = p.values[2], l2 = p.values[3];
-    auto& b = s.behaviour;
+    ite::BehaviourDescriptor b;
     b.names = {"tip_x_1", "tip_y_1", "tip_x_2", "tip_y_2", "tip_x_3", "tip_y_3"};
     b.bins.assign(6, kIteBinsPerDimension);
     b.describe = [l1, l2](const rollout::Trajectory& tr) { return tip_descriptor(tr, l1, l2); };
@@ -217,6 +219,7 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     b.doc = "tip position (x, y) at steps " + std::to_string(steps[0]) + ", " +
             std::to_string(steps[1]) + " and " + std::to_string(steps[2]) +
             ", each coordinate as (p + L) / 2L with L = l1 + l2 of the prior";
+    s.algorithm_data.set("ite", std::move(b));
     for (const auto& n : kParams) s.real_system_keys.push_back("system." + n);
     return s;
   }
