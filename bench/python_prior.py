@@ -196,12 +196,12 @@ class PriorA(drops.Prior):
             raise ValueError(f"masses and lengths must be >= 0.01, frictions >= 0: {phi}")
 
 
-def check_port(directory):
-    """Replays the C++ run's first real episode (its actions, from its start state) through the
-    numpy and the compiled pendubot and checks both reproduce its states: the port's check. The
-    CSV files hold about 10 significant digits, hence the tolerance."""
+def check_port(directory, steps):
+    """Replays the C++ run's first real episode (its actions, from its start state) through each
+    Python pendubot of `steps` (name -> step function) and checks it reproduces the states: the
+    port's check. The CSV files hold about 10 significant digits, hence the tolerance."""
     real = drops.read_run(directory).real(1)
-    for name, f in (("numpy", step), ("numba", compiled_step())):
+    for name, f in steps.items():
         x = real.x[:1]
         for k in range(real.u.shape[0]):
             x = f(x, real.u[k:k + 1], np.array(list(ACTUAL.values())))
@@ -211,13 +211,13 @@ def check_port(directory):
             x = real.x[k + 1:k + 2]  # the next step from the recorded state
 
 
-def measure(output, overrides, robot):
+def measure(output, overrides, robot, steps):
     Clock.seconds, Clock.calls = 0.0, 0
     t = time.perf_counter()
     out = drops.run(overrides=overrides, seed=1, output=output, quiet=True, **robot)
     wall = time.perf_counter() - t
     if not robot:
-        check_port(out.directory)
+        check_port(out.directory, steps)
     ep = drops.read_run(out.directory).episodes
     # Episode 3's policy was searched on the model of episodes 1-2 (N = 100 transitions); the
     # search's time and evaluations are episodes.csv columns.
@@ -239,19 +239,19 @@ def main():
     parser.add_argument("--variants", nargs="+", default=["numpy", "numba"],
                         choices=["numpy", "numba"], help="the Python priors to measure")
     args = parser.parse_args()
-    steps = {"numpy": step, "numba": compiled_step() if "numba" in args.variants else None}
+    steps = {v: compiled_step() if v == "numba" else step for v in args.variants}
     rows = []
     with tempfile.TemporaryDirectory() as output:
         for batch in args.batch:
             common = {"episodes": 10, "threads": args.threads, "rollouts.batch": batch}
             for _ in range(args.repeats):  # alternate, so that a busy moment hits every variant
-                cpp = measure(output, {**common, "task": "pendubot"}, {})
+                cpp = measure(output, {**common, "task": "pendubot"}, {}, steps)
                 print(f"rollouts.batch={batch}: C++ prior {cpp['wall']:.1f} s, evaluations/s at "
                       f"N=100: {cpp['eval_per_s']:.0f}, first solved {cpp['solved']}", flush=True)
                 for variant in args.variants:
                     py = measure(output, {**common, "model.gp_mi.score": "sum_likelihoods"},
                                  {"task": SwingUp(), "system": RealPendubot(),
-                                  "prior": PriorA(steps[variant])})
+                                  "prior": PriorA(steps[variant])}, steps)
                     rows.append((batch, variant, cpp, py))
                     print(f"  {variant} prior {py['wall']:.1f} s ({py['wall'] / cpp['wall']:.2f}x), "
                           f"evaluations/s at N=100: {py['eval_per_s']:.0f}, Python callbacks "

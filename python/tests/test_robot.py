@@ -216,14 +216,13 @@ def test_the_same_seed_gives_the_same_episodes_with_1_and_2_threads(tmp_path):
 
 
 def test_every_algorithm_that_needs_only_the_three_pieces_runs_and_the_others_are_refused(tmp_path):
-    runs = {"gp": {"model.type": "gp"}, "gp_prior": {"model.type": "gp_prior"},
-            "mi": {"model.type": "mi"}, "direct": {"algorithm": "direct",
-                                                   "optimizer.max_evaluations": 12}}
+    model_based = {**SMALL, "episodes": 2}
+    runs = {"gp": {**model_based, "model.type": "gp"},
+            "gp_prior": {**model_based, "model.type": "gp_prior"},
+            "mi": {**model_based, "model.type": "mi"},
+            "direct": {"algorithm": "direct", "optimizer.max_evaluations": 12}}  # 12 episodes
     for name, settings in runs.items():
-        overrides = {**SMALL, **settings} if name != "direct" else settings
-        if name != "direct":
-            overrides["episodes"] = 2
-        out = drops.run(overrides=overrides, output=tmp_path, name=name, quiet=True,
+        out = drops.run(overrides=settings, output=tmp_path, name=name, quiet=True,
                         progress=lambda line: None, **robot())
         run = drops.read_run(out.directory)
         assert out.status == "complete" and run.algorithm == settings.get("algorithm",
