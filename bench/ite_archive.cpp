@@ -3,24 +3,31 @@
 // after every `every` evaluations. A plain program, not a Google Benchmark: what it measures is a
 // curve (coverage against evaluations) and a rate (evaluations per second).
 //
-//   build/bench/ite_archive TASK EVALUATIONS EVERY [key=value ...]
+//   build/bench/ite_archive TASK EVALUATIONS EVERY [--save-at=N1,N2,... --save-dir=DIR] [key=value ...]
 //   build/bench/ite_archive pendubot 200000 10000 threads=2
 //   build/bench/ite_archive hexapod 40000 2000 threads=2
+//   build/bench/ite_archive hexapod 1600000 100000 --save-at=100000,400000,1600000 --save-dir=a seed=1
 //
 // Prints one CSV row per report: evaluations, seconds (wall clock since the start),
 // evaluations_per_s (over the last interval), filled, coverage, best_fitness; then a summary line
 // on stderr. docs/benchmarks.md ("IT&E archive generation") holds the measured tables.
+// --save-at writes the archive as it stands once it has at least N evaluations, as
+// DIR/archive-N.csv (the archive file of docs/ite.md, usable as `ite.archive`): MAP-Elites is an
+// anytime algorithm, so one run gives the archives of every smaller budget.
 #include <fmt/format.h>
 
 #include <chrono>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "drops/algo/ite.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/core/rng.hpp"
+#include "drops/experiment/archive_file.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/pendubot/plugin.hpp"
 #ifdef DROPS_WITH_HEXAPOD
@@ -31,7 +38,8 @@ using namespace drops;
 
 int main(int argc, char** argv) {
   if (argc < 4) {
-    std::cerr << "usage: ite_archive TASK EVALUATIONS EVERY [key=value ...]\n";
+    std::cerr << "usage: ite_archive TASK EVALUATIONS EVERY [--save-at=N1,N2,... --save-dir=DIR] "
+                 "[key=value ...]\n";
     return 2;
   }
   use_single_threaded_blas();
@@ -45,7 +53,20 @@ int main(int argc, char** argv) {
   const long every = std::atol(argv[3]);
   std::vector<std::string> overrides = {std::string("task=") + argv[1], "algorithm=ite",
                                         "ite.evaluations=" + std::to_string(evaluations)};
-  for (int i = 4; i < argc; ++i) overrides.emplace_back(argv[i]);
+  std::vector<long> save_at;
+  std::filesystem::path save_dir = ".";
+  for (int i = 4; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--save-at=", 0) == 0) {
+      std::stringstream list(a.substr(10));
+      for (std::string item; std::getline(list, item, ',');) save_at.push_back(std::atol(item.c_str()));
+    } else if (a.rfind("--save-dir=", 0) == 0) {
+      save_dir = a.substr(11);
+    } else {
+      overrides.emplace_back(a);
+    }
+  }
+  if (!save_at.empty()) std::filesystem::create_directories(save_dir);
   const auto e =
       experiment::make_experiment(registry, experiment::load_settings(registry, "", overrides));
   ThreadLimit limit(e.threads);
@@ -59,7 +80,21 @@ int main(int argc, char** argv) {
   auto last_t = t0;
   long last_e = 0, next = every;
   std::cout << "evaluations,seconds,evaluations_per_s,filled,coverage,best_fitness\n";
+  const experiment::ArchiveFileInfo file_info = experiment::archive_file_info(e.task, e.setup);
+  std::size_t next_save = 0;
+  auto save = [&](const ite::MapElitesProgress& p, const ite::Archive& a) {
+    while (next_save < save_at.size() && p.cursor.evaluations >= save_at[next_save]) {
+      experiment::ArchiveFileInfo info = file_info;
+      info.complete = true;
+      info.cursor = p.cursor;
+      const auto file = save_dir / fmt::format("archive-{}.csv", save_at[next_save]);
+      experiment::write_archive_file(file, a, info);
+      std::cerr << fmt::format("wrote {} ({} evaluations)\n", file.string(), p.cursor.evaluations);
+      ++next_save;
+    }
+  };
   auto report = [&](const ite::MapElitesProgress& p, const ite::Archive& a, bool force) {
+    save(p, a);
     if (p.cursor.evaluations < next && !force) return;
     next = (p.cursor.evaluations / every + 1) * every;
     const auto now = std::chrono::steady_clock::now();
