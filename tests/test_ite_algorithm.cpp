@@ -60,7 +60,7 @@ Outcome run(const experiment::Experiment& e, int threads, const algo::RunState* 
   cb.on_episode = [&](const algo::EpisodeRecord& r) { out.records.push_back(r); };
   cb.on_state = [&](const algo::RunState& s) {
     out.states.push_back(s);
-    if (s.archive.archive) out.archive = s.archive;
+    if (const auto* a = algo::archive_state(s)) out.archive = *a;
   };
   cb.on_status = [&](const algo::Status& s) { last = s; };
   cb.should_stop = [&] { return stop_when && stop_when(out, last); };
@@ -119,8 +119,8 @@ TEST(IteAlgorithm, SameSeedGivesTheSameArchiveAndTrialsWithOneAndTwoThreads) {
   ASSERT_TRUE(one.archive.archive && two.archive.archive);
   EXPECT_TRUE(*one.archive.archive == *two.archive.archive);
   EXPECT_GT(one.archive.archive->size(), 20u);
-  EXPECT_TRUE(one.states.back().archive.complete);
-  EXPECT_EQ(one.states.back().archive.cursor.evaluations, 1500);  // every state says it
+  EXPECT_TRUE(algo::archive_state(one.states.back())->complete);
+  EXPECT_EQ(algo::archive_state(one.states.back())->cursor.evaluations, 1500);  // every state says it
   expect_same_episodes(one.records, two.records);
   ASSERT_EQ(one.records.size(), 4u);
   // Trials are cells of the archive; the first is its best.
@@ -228,9 +228,9 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   auto rd = experiment::RunDirectory::reopen(
       dir, e, experiment::to_yaml(fixtures::registry(), e.settings), &state);
   EXPECT_EQ(state.episodes_done, 0);
-  ASSERT_TRUE(state.archive.archive);
-  EXPECT_FALSE(state.archive.complete);
-  EXPECT_EQ(state.archive.cursor.evaluations, 700);
+  ASSERT_TRUE(algo::archive_state(state) && algo::archive_state(state)->archive);
+  EXPECT_FALSE(algo::archive_state(state)->complete);
+  EXPECT_EQ(algo::archive_state(state)->cursor.evaluations, 700);
   algo::Callbacks cb;
   std::vector<algo::EpisodeRecord> records;
   cb.on_state = [&](const algo::RunState& s) { rd->save_state(s); };
@@ -294,7 +294,7 @@ TEST(IteAlgorithm, AResumeWithADamagedOrMissingArchiveIsRefusedNamingTheFile) {
   std::ofstream(archive) << good;
   algo::RunState state;
   EXPECT_NO_THROW(experiment::RunDirectory::reopen(dir, e, yaml, &state));
-  EXPECT_EQ(state.archive.cursor.evaluations, 700);
+  EXPECT_EQ(algo::archive_state(state)->cursor.evaluations, 700);
 }
 
 TEST(IteAlgorithm, TheArchiveCacheIsSharedByRunsThatDifferOnlyInTheRealSystem) {

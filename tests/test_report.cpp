@@ -59,8 +59,29 @@ std::string read(const fs::path& p) {
   return ss.str();
 }
 
-// A run directory with only what the report reads: config.yaml and summary.json. Episode k has
-// interaction time 2.5 k s, returns[k-1] and solved[k-1]; φ = (k, 10) for every run.
+// The report block of summary.json of a task that declares no label, no metric and no tunable
+// phi, in a panel called `panel` (what a robot of one's own that the registry does not know
+// writes).
+nlohmann::json unlabelled_report(const std::string& panel) {
+  return {{"phi_tunable", nlohmann::json::array()},
+          {"phi_labels", nlohmann::json::object()},
+          {"column_labels", nlohmann::json::object()},
+          {"panel", {{"label", panel}, {"rank", 0}, {"title", panel}, {"chosen_by_prior", true}}},
+          {"metric",
+           {{"name", ""},
+            {"label", ""},
+            {"unit", ""},
+            {"file", ""},
+            {"predicted", ""},
+            {"reference", nullptr},
+            {"reference_label", ""}}},
+          {"success_criterion", true},
+          {"phi_value_labels", nlohmann::json::array()}};
+}
+
+// A run directory with only what the report reads: config.yaml and summary.json, whose head is
+// the one a run of that config.yaml starts with (summary_head). Episode k has interaction time
+// 2.5 k s, returns[k-1] and solved[k-1]; φ = (k, 10) for every run.
 void fake_run(const fs::path& runs, const std::string& name, const std::string& model,
               const std::string& prior, int seed, const std::string& status,
               const std::vector<double>& returns, const std::vector<bool>& solved,
@@ -69,16 +90,14 @@ void fake_run(const fs::path& runs, const std::string& name, const std::string& 
   write(dir / "config.yaml", "task: pendubot\nseed: " + std::to_string(seed) +
                                  "\nmodel:\n  type: " + model + "\nprior:\n  preset: " + prior +
                                  "\n  tunable: [m1]\n" + extra_config);
-  nlohmann::json s = {{"format_version", kRunDirectoryFormatVersion},
-                      {"task", "pendubot"},
-                      {"model", model},
-                      {"prior", prior},
-                      {"seed", seed},
-                      {"episodes_planned", 3},
-                      {"phi_names", {"m1", "b1"}},
-                      {"phi_actual", {0.5, 0.1}},
-                      {"status", status},
-                      {"episodes", nlohmann::json::array()}};
+  const Registry& registry = fixtures::registry();
+  nlohmann::json s = summary_head(
+      make_experiment(registry, load_settings_file(registry, (dir / "config.yaml").string(), {})));
+  s.update({{"prior", prior},
+            {"episodes_planned", 3},
+            {"phi_names", {"m1", "b1"}},
+            {"phi_actual", {0.5, 0.1}},
+            {"status", status}});
   bool any = false;
   for (std::size_t i = 0; i < returns.size(); ++i) {
     const int k = static_cast<int>(i) + 1;
@@ -382,8 +401,14 @@ TEST(Report, RunsWhoseTaskSettingsDifferAreSplitByTheSettingNotMerged) {
   write(runs / "z" / "summary.json",
         nlohmann::json({{"format_version", kRunDirectoryFormatVersion},
                         {"task", "myrobot"},
+                        {"algorithm", "black_drops"},
                         {"model", "gp_mi"},
+                        {"uses_prior", true},
+                        {"uses_model", true},
                         {"prior", "tunable"},
+                        {"report", unlabelled_report("tunable")},
+                        {"state_names", {"x"}},
+                        {"action_names", {"u"}},
                         {"status", "complete"},
                         {"episodes", {{{"episode", 1}, {"real_return", 7.0}}}}})
             .dump());
@@ -393,34 +418,24 @@ TEST(Report, RunsWhoseTaskSettingsDifferAreSplitByTheSettingNotMerged) {
   EXPECT_EQ(group(two, "gp_mi pendubot.max_torque=3 task=pendubot", "tunable").runs, 2);
 }
 
-// A direct search of the pendubot (config.yaml with algorithm: direct); `old` writes the report
-// block as summary.json held it before model-free runs had a panel of their own.
+// A direct search of the pendubot (config.yaml with algorithm: direct).
 void fake_direct_run(const fs::path& runs, const std::string& name, const std::string& preset,
-                     int seed, const std::vector<double>& returns, bool old) {
+                     int seed, const std::vector<double>& returns) {
   fake_run(runs, name, "gp", preset, seed, "complete", returns,
-           std::vector<bool>(returns.size(), false));
-  write(runs / name / "config.yaml",
-        "task: pendubot\nalgorithm: direct\nseed: " + std::to_string(seed) +
-            "\nprior:\n  preset: " + preset + "\n");
-  nlohmann::json s = nlohmann::json::parse(read(runs / name / "summary.json"));
-  s["model"] = "direct";
-  s["algorithm"] = "direct";
-  if (old)
-    s["report"] = {{"panel", {{"label", preset}, {"rank", 0}, {"title", "A tunable & useful"}}},
-                   {"metric", {{"name", ""}}}};
-  write(runs / name / "summary.json", s.dump());
+           std::vector<bool>(returns.size(), false),
+           "algorithm: direct\n");
 }
 
-// Direct runs use neither a model nor a prior: they get a panel of their own after the priors'
-// (also runs written before), whatever the prior.preset of their configuration, which does not
-// split them; Black-DROPS without a prior (gp) stays in the prior's panel.
+// Direct runs use neither a model nor a prior: they get a panel of their own after the priors',
+// whatever the prior.preset of their configuration, which does not split them; Black-DROPS
+// without a prior (gp) stays in the prior's panel.
 TEST(Report, DirectRunsGetAPanelOfTheirOwnNotAPriorsPanel) {
   TempDir tmp;
   const fs::path runs = tmp.path() / "runs";
   fake_run(runs, "gp_mi-1", "gp_mi", "tunable-useful", 1, "complete", {1, 2}, {false, true});
   fake_run(runs, "gp-1", "gp", "tunable-useful", 1, "complete", {1, 3}, {false, true});
-  fake_direct_run(runs, "direct-1", "tunable-useful", 1, {0, 1}, true);
-  fake_direct_run(runs, "direct-2", "tunable", 2, {0, 3}, false);
+  fake_direct_run(runs, "direct-1", "tunable-useful", 1, {0, 1});
+  fake_direct_run(runs, "direct-2", "tunable", 2, {0, 3});
   const CampaignReport rep = aggregate_campaign(fixtures::registry(), tmp.path());
   EXPECT_TRUE(rep.split_settings.empty());
   ASSERT_EQ(rep.groups.size(), 3u);
@@ -491,16 +506,20 @@ void fake_hexapod_run(const fs::path& runs, const std::string& name, const std::
       {"format_version", kRunDirectoryFormatVersion},
       {"task", "hexapod"},        {"algorithm", "black_drops"},
       {"model", model},           {"uses_prior", true},
+      {"uses_model", true},       {"phi_actual", {removed_leg == "none" ? -1 : 5}},
+      {"state_names", {"x"}},     {"action_names", {"u"}},
       {"prior", "intact"},        {"seed", seed},
       {"episodes_planned", 2},    {"phi_names", {"removed_leg"}},
       {"status", "complete"},     {"episodes", nlohmann::json::array()},
-      {"report",
-       {{"panel", {{"label", panel}, {"rank", removed_leg == "none" ? 0 : 1},
-                   {"title", "real robot: " + panel}}},
-        {"metric", {{"name", "walking_speed_m_s"}, {"label", "walking speed"}, {"unit", "m/s"},
-                    {"file", "speed"}}},
-        {"success_criterion", false},
-        {"phi_value_labels", labels}}}};
+      {"report", unlabelled_report(panel)}};
+  s["report"].merge_patch(
+      {{"panel", {{"rank", removed_leg == "none" ? 0 : 1},
+                  {"title", "real robot: " + panel},
+                  {"chosen_by_prior", false}}},
+       {"metric", {{"name", "walking_speed_m_s"}, {"label", "walking speed"}, {"unit", "m/s"},
+                   {"file", "speed"}}},
+       {"success_criterion", false},
+       {"phi_value_labels", labels}});
   for (std::size_t i = 0; i < speeds.size(); ++i)
     s["episodes"].push_back({{"episode", static_cast<int>(i) + 1},
                              {"interaction_time_s", 4.0 * static_cast<double>(i + 1)},
@@ -757,9 +776,8 @@ void fake_trajectory(const fs::path& file) {
 }  // namespace
 
 // Two runs for the labels of `drops plot`, their plot-data.json written into `dir`:
-//   pendubot.json: a pendubot run written before summary.json held labels and column names (its
-//                  labels come from config.yaml through the registered task, its action column is
-//                  the one empty on the last row only);
+//   pendubot.json: a pendubot run (its labels and column names from summary.json, as the
+//                  registered task declared them);
 //   own.json:      a robot of one's own whose task declares no labels (not registered here):
 //                  summary.json names its columns q, dq (states) and u_1 (action), phi m1 and k.
 fs::path label_fixtures(const fs::path& dir) {
@@ -780,7 +798,9 @@ fs::path label_fixtures(const fs::path& dir) {
                                               {"algorithm", "black_drops"},
                                               {"model", "gp_mi"},
                                               {"uses_prior", true},
+                                              {"uses_model", true},
                                               {"prior", "p0"},
+                                              {"report", unlabelled_report("p0")},
                                               {"status", "complete"},
                                               {"phi_names", {"m1", "k"}},
                                               {"phi_actual", {1.0, 2.0}},

@@ -18,6 +18,15 @@ namespace drops::algo {
 constexpr const char* kTrialCells = "ite.trial_cells";
 constexpr const char* kTrialReturns = "ite.trial_returns";
 
+const ArchiveState* archive_state(const RunState& state) {
+  if (!state.side_state.has_value()) return nullptr;
+  const auto* a = std::any_cast<ArchiveState>(&state.side_state);
+  if (!a)
+    throw Error(std::string("the state's side state is a ") + state.side_state.type().name() +
+                ", not IT&E's archive");
+  return a;
+}
+
 StateVectors IteTrials::save() const {
   VectorXd c(static_cast<Eigen::Index>(cells.size()));
   for (std::size_t i = 0; i < cells.size(); ++i)
@@ -138,7 +147,7 @@ RunSummary Ite::run(const Problem& problem, const Callbacks& callbacks,
   mo.max_trials = options_.episodes;
   ite::Mboa mboa(*scaled_archive(archive, scale), mo);
   RunState state;
-  state.archive = {got.archive, true, got.cursor};
+  state.side_state = ArchiveState{got.archive, true, got.cursor};
   IteTrials trials;
   if (resume && resume->episodes_done > 0) {
     // Replay the trials so far: the posterior is a function of them alone.
@@ -282,13 +291,14 @@ ArchiveOutcome obtain_archive(const Problem& problem, const IteOptions& options,
                       const ite::MapElitesCursor& cursor) {
     if (!callbacks.on_state) return;
     RunState st;
-    st.archive = {std::move(archive), complete, cursor};
+    st.side_state = ArchiveState{std::move(archive), complete, cursor};
     callbacks.on_state(st);
   };
-  if (resume && resume->archive.archive && resume->archive.complete) {
-    check_archive(*resume->archive.archive, problem, k, "resume: the archive");
-    out.archive = resume->archive.archive;
-    out.cursor = resume->archive.cursor;
+  const ArchiveState* resumed = resume ? archive_state(*resume) : nullptr;
+  if (resumed && resumed->archive && resumed->complete) {
+    check_archive(*resumed->archive, problem, k, "resume: the archive");
+    out.archive = resumed->archive;
+    out.cursor = resumed->cursor;
     out.source = "resumed";
     return out;
   }
@@ -310,12 +320,12 @@ ArchiveOutcome obtain_archive(const Problem& problem, const IteOptions& options,
   const std::vector<int> bins = options.bins.empty() ? behaviour.bins : options.bins;
   auto archive = std::make_shared<ite::Archive>(bins, n);
   const ite::MapElitesCursor* cursor = nullptr;
-  if (resume && resume->archive.archive) {
-    check_archive(*resume->archive.archive, problem, k, "resume: the partial archive");
-    if (resume->archive.archive->bins() != bins)
+  if (resumed && resumed->archive) {
+    check_archive(*resumed->archive, problem, k, "resume: the partial archive");
+    if (resumed->archive->bins() != bins)
       throw InvalidArgument("resume: the partial archive's grid differs from the configured one");
-    *archive = *resume->archive.archive;
-    cursor = &resume->archive.cursor;
+    *archive = *resumed->archive;
+    cursor = &resumed->cursor;
   }
   ite::MapElitesOptions mo = options.map_elites;
   mo.seed = derive_seed(options.seed, {kIteArchiveStream});

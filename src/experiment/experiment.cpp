@@ -338,6 +338,7 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
     generic(e.setup.action_names, "u", e.setup.task->action_dim());
   }
   e.runner = algorithm.make(st, e.setup);
+  e.state_files = algorithm.state_files(st, e.setup);
   e.uses_prior = algorithm.uses_prior(st);
   e.variant_style = algorithm.variant_style(st);
   e.uses_model = algorithm.uses_model(st);

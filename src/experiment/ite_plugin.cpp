@@ -3,14 +3,19 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 
 #include "drops/algo/ite.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/experiment/archive_file.hpp"
 #include "drops/experiment/experiment.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "experiment_plugins.hpp"
 
 namespace drops::experiment {
@@ -188,13 +193,13 @@ class CachingIte final : public algo::Algorithm {
                        const algo::RunState* resume) const override {
     algo::Callbacks c = callbacks;
     c.on_state = [&](const algo::RunState& st) {
-      const auto& a = st.archive;
-      if (a.archive && a.complete && !fs::exists(file_)) {
+      const algo::ArchiveState* a = algo::archive_state(st);
+      if (a && a->complete && !fs::exists(file_)) {
         std::error_code ec;
         fs::create_directories(file_.parent_path(), ec);
         ArchiveFileInfo info = info_;
-        info.cursor = a.cursor;
-        write_archive_file(file_, *a.archive, info);  // atomic: a concurrent writer is harmless
+        info.cursor = a->cursor;
+        write_archive_file(file_, *a->archive, info);  // atomic: a concurrent writer is harmless
       }
       if (callbacks.on_state) callbacks.on_state(st);
     };
@@ -205,6 +210,105 @@ class CachingIte final : public algo::Algorithm {
   algo::Ite ite_;
   fs::path file_;
   ArchiveFileInfo info_;
+};
+
+/// IT&E's side state in the run directory: its archive (algo::ArchiveState) as archive.csv,
+/// written before each checkpoint that carries another archive or the same one now complete, with
+/// its MAP-Elites cursor; and archive_progress.csv, one row per MAP-Elites generation (status
+/// phase "archive"): evaluations, seconds of the run, coverage, best fitness, UTC time
+/// (docs/ite.md, "The run directory").
+class IteStateFiles final : public StateFiles {
+ public:
+  explicit IteStateFiles(ArchiveFileInfo info) : info_(std::move(info)) {}
+
+  std::vector<std::string> file_names() const override {
+    return {"archive.csv", "archive_progress.csv"};
+  }
+
+  bool save(const std::any& side, const fs::path& dir, nlohmann::json* summary) override {
+    const auto* a = std::any_cast<algo::ArchiveState>(&side);
+    if (!a || !a->archive || (a->archive == written_ && a->complete == written_complete_))
+      return false;
+    ArchiveFileInfo info = info_;
+    info.complete = a->complete;
+    info.cursor = a->cursor;
+    write_archive_file(dir / "archive.csv", *a->archive, info);
+    written_ = a->archive;  // held, so that its address is not reused
+    written_complete_ = a->complete;
+    const auto number = [](double v) {
+      return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+    };
+    (*summary)["archive"] = {
+        {"file", "archive.csv"},
+        {"complete", a->complete},
+        {"cells", a->archive->size()},
+        {"total_cells", a->archive->total_cells()},
+        {"coverage", a->archive->coverage()},
+        {"best_fitness", a->archive->empty() ? nlohmann::json(nullptr)
+                                             : number(a->archive->best().fitness)},
+        {"evaluations", a->cursor.evaluations}};
+    return true;
+  }
+
+  // archive.csv is not among the checkpoint's checksums: it is written before checkpoint.json and
+  // carries its own MAP-Elites cursor, so one newer than the checkpoint (a crash between the two
+  // writes) is continued from, not refused; its reader checks every line.
+  bool load(const fs::path& dir, std::any* side, std::vector<std::string>* repairs) override {
+    if (!fs::exists(dir / "archive.csv")) return false;
+    ArchiveFile file;
+    try {
+      file = read_archive_file(dir / "archive.csv");
+    } catch (const std::exception& ex) {
+      throw RunDirectoryDamaged(std::string(ex.what()) +
+                                ": restore the file or start the run again");
+    }
+    *side = algo::ArchiveState{file.archive, file.info.complete, file.info.cursor};
+    written_ = file.archive;
+    written_complete_ = file.info.complete;
+    // archive_progress.csv may run past the archive's cursor (rows of generations the resumed
+    // run evaluates again): keep its rows up to the cursor.
+    const fs::path progress = dir / "archive_progress.csv";
+    if (!fs::exists(progress)) return true;
+    std::istringstream in(read_file_text(progress));
+    std::string line, kept;
+    std::size_t dropped = 0;
+    for (bool header = true; std::getline(in, line); header = false) {
+      // A whole row has 5 fields and ends with the time (a crash may have cut the last one).
+      const bool whole = std::count(line.begin(), line.end(), ',') == 4 && line.back() == 'Z';
+      if (header || (whole && std::atol(line.c_str()) <= file.info.cursor.evaluations))
+        kept += line + "\n";
+      else
+        ++dropped;
+    }
+    if (dropped > 0) {
+      write_file_atomically(progress, kept);
+      repairs->push_back(fmt::format("removed {} row{} of archive_progress.csv past the archive's "
+                                     "{} evaluations",
+                                     dropped, dropped == 1 ? "" : "s",
+                                     file.info.cursor.evaluations));
+    }
+    return true;
+  }
+
+  void on_status(const algo::Status& status, double seconds, const fs::path& dir) override {
+    if (status.phase != "archive") return;
+    const fs::path path = dir / "archive_progress.csv";
+    // Also a file left empty by a crash before its header was written.
+    const bool fresh = !fs::exists(path) || fs::file_size(path) == 0;
+    std::ofstream out(path, std::ios::app);
+    if (fresh) out << "evaluations,seconds,coverage,best_fitness,utc\n";
+    // A non-finite number (no elite yet) is an empty field, which CSV readers take as missing.
+    const auto field = [](double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : ""; };
+    out << fmt::format("{},{:.3f},{},{},{}\n", status.evaluations, seconds,
+                       field(status.coverage), field(status.best), now_iso());
+    out.flush();
+    if (!out) throw Error("cannot write " + path.string());
+  }
+
+ private:
+  ArchiveFileInfo info_;
+  std::shared_ptr<const ite::Archive> written_;  ///< last written to or read from archive.csv
+  bool written_complete_ = false;                ///< whether it was complete then
 };
 
 class ItePlugin final : public AlgorithmPlugin {
@@ -233,6 +337,11 @@ class ItePlugin final : public AlgorithmPlugin {
       }
     }
     return std::make_unique<CachingIte>(o, file, archive_file_info(s.at("task"), setup));
+  }
+  StateFilesFactory state_files(const Settings& s, const TaskSetup& setup) const override {
+    return [info = archive_file_info(s.at("task"), setup)] {
+      return std::make_unique<IteStateFiles>(info);
+    };
   }
 };
 

@@ -864,10 +864,8 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
   };
   nlohmann::json phi_labels = nlohmann::json::array();
   for (const auto& n : run.phi_names) phi_labels.push_back(label(run.report.phi_labels, n));
-  // The role of each trajectory column: time, state, action, reward or extra (after the reward).
-  // Runs written before summary.json named the state and action columns: the actions are the
-  // columns before the reward that are empty on the last row only (no action follows the last
-  // state).
+  // The role of each trajectory column: time, state, action, reward or extra (after the reward),
+  // from summary.json's state and action names.
   nlohmann::json columns = nlohmann::json::array();
   if (!episodes.empty()) {
     const TrajectoryTable t = read_trajectory_csv(
@@ -886,12 +884,8 @@ void write_plot_data(const RunResult& run, const std::vector<int>& episodes,
         after_reward = true;
       } else if (after_reward) {
         kind = "extra";
-      } else if (!run.state_names.empty() || !run.action_names.empty()) {
-        kind = in(run.action_names, c) ? "action" : "state";
       } else {
-        const bool last_empty = !t.rows.empty() && std::isnan(t.rows.back()[i]);
-        const bool first_set = !t.rows.empty() && !std::isnan(t.rows.front()[i]);
-        kind = t.rows.size() > 1 && last_empty && first_set ? "action" : "state";
+        kind = in(run.action_names, c) ? "action" : "state";
       }
       nlohmann::json col = label(run.report.column_labels, c);
       col["kind"] = kind;

@@ -121,7 +121,7 @@ RunOutcome run_experiment(const Registry& registry, const Settings& settings,
   algo::Callbacks cb;
   cb.should_stop = [&] { return out.should_stop && out.should_stop(); };
   cb.on_status = [&](const algo::Status& s) {
-    dir->record_archive_progress(s);  // IT&E's archive: coverage against evaluations and time
+    dir->record_status(s);  // the side state's progress files (IT&E: archive_progress.csv)
     const auto now = std::chrono::steady_clock::now();
     if (s.phase == "simulation episode") {  // PILCO with priors: one line per simulated episode
       clear();

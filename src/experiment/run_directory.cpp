@@ -17,7 +17,6 @@
 #include <set>
 #include <sstream>
 
-#include "drops/experiment/archive_file.hpp"
 #include "drops/experiment/campaign.hpp"
 #include "drops/experiment/registry.hpp"
 #include "sha256.hpp"
@@ -176,18 +175,17 @@ std::string plural(std::size_t n, const char* word) {
   return fmt::format("{} {}{}", n, word, n == 1 ? "" : "s");
 }
 
-/// The report block of summary.json; what it does not hold (written before the entry existed)
-/// comes from `known` (the task plugin's report_info of config.yaml, when the task is known).
-ReportInfo report_from_json(const nlohmann::json& j, const ReportInfo& known) {
+/// The report block of summary.json (report_json). Throws nlohmann::json::exception when a
+/// member is missing.
+ReportInfo report_from_json(const nlohmann::json& j) {
   ReportInfo r;
   const auto& p = j.at("panel");
   r.panel.label = p.value("label", std::string());
   r.panel.rank = p.value("rank", 0);
   r.panel.title = p.value("title", std::string());
-  r.panel.chosen_by_prior = p.value("chosen_by_prior", known.panel.chosen_by_prior);
-  r.phi_labels = j.contains("phi_labels") ? labels_from_json(j["phi_labels"]) : known.phi_labels;
-  r.column_labels =
-      j.contains("column_labels") ? labels_from_json(j["column_labels"]) : known.column_labels;
+  r.panel.chosen_by_prior = p.at("chosen_by_prior").get<bool>();
+  r.phi_labels = labels_from_json(j.at("phi_labels"));
+  r.column_labels = labels_from_json(j.at("column_labels"));
   const auto& m = j.at("metric");
   r.metric.name = m.value("name", std::string());
   r.metric.label = m.value("label", std::string());
@@ -198,14 +196,35 @@ ReportInfo report_from_json(const nlohmann::json& j, const ReportInfo& known) {
                            ? m["reference"].get<double>()
                            : kNaN;
   r.metric.reference_label = m.value("reference_label", std::string());
-  r.success_criterion = j.value("success_criterion", true);
-  if (j.contains("phi_tunable")) r.phi_tunable = j["phi_tunable"].get<std::vector<std::string>>();
+  r.success_criterion = j.at("success_criterion").get<bool>();
+  r.phi_tunable = j.at("phi_tunable").get<std::vector<std::string>>();
   for (const auto& e : j.value("phi_value_labels", nlohmann::json::array()))
     r.phi_value_labels[e.at(0).get<double>()] = e.at(1).get<std::string>();
   return r;
 }
 
 }  // namespace
+
+nlohmann::json summary_head(const Experiment& e) {
+  const auto& p = e.setup.prior_parameters;
+  return {{"format_version", kRunDirectoryFormatVersion},
+          {"task", e.task},
+          {"algorithm", e.algorithm},
+          {"model", e.variant},
+          {"variant_style", style_json(e.variant_style)},
+          {"uses_prior", e.uses_prior},
+          {"uses_model", e.uses_model},
+          {"prior", e.setup.prior_label},
+          {"report", report_json(e.report)},
+          {"seed", e.seed},
+          {"episodes_planned", e.runner ? e.runner->episodes() : 0},
+          {"phi_names", p.names},
+          {"phi_actual", e.setup.phi_actual},
+          {"state_names", e.setup.state_names},
+          {"action_names", e.setup.action_names},
+          {"started", now_iso()},
+          {"episodes", nlohmann::json::array()}};
+}
 
 std::string read_file_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -279,7 +298,9 @@ std::string trajectory_csv(const rollout::Trajectory& tr, const TaskSetup& setup
 // Writer.
 
 RunDirectory::RunDirectory(const fs::path& dir, const Experiment& experiment)
-    : dir_(dir), experiment_(experiment) {}
+    : dir_(dir),
+      experiment_(experiment),
+      state_files_(experiment.state_files ? experiment.state_files() : nullptr) {}
 
 RunDirectory::~RunDirectory() {
   if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the flock
@@ -295,7 +316,7 @@ void RunDirectory::lock() {
 
 RunDirectory::RunDirectory(const fs::path& dir, const std::string& config_yaml,
                            const Experiment& e)
-    : dir_(dir), experiment_(e) {
+    : RunDirectory(dir, e) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw Error("cannot create run directory " + dir.string() + ": " + ec.message());
@@ -342,32 +363,17 @@ void RunDirectory::start(const std::string& config_yaml) {
       "policy_optimization_s,evaluations";
   for (const auto& m : e.setup.metric_names) header += "," + m;
   append_row(header + "\n");
-  const auto& p = e.setup.prior_parameters;
-  summary_ = {{"format_version", kRunDirectoryFormatVersion},
-              {"task", e.task},
-              {"algorithm", e.algorithm},
-              {"model", e.variant},
-              {"variant_style", style_json(e.variant_style)},
-              {"uses_prior", e.uses_prior},
-              {"uses_model", e.uses_model},
-              {"prior", e.setup.prior_label},
-              {"report", report_json(e.report)},
-              {"seed", e.seed},
-              {"episodes_planned", e.runner->episodes()},
-              {"phi_names", p.names},
-              {"phi_actual", e.setup.phi_actual},
-              {"state_names", e.setup.state_names},
-              {"action_names", e.setup.action_names},
-              {"started", now_iso()},
-              {"episodes", nlohmann::json::array()}};
+  summary_ = summary_head(e);
   write_summary("running");
 }
 
 void RunDirectory::restart(const std::string& config_yaml) {
   // What a first episode that did not finish may have left: its files (written before its row),
-  // IT&E's archive and its progress (built on the prior only), the summary of the session.
-  for (const char* f : {"episodes.csv", "summary.json", "archive.csv", "archive_progress.csv"})
-    fs::remove(dir_ / f);
+  // the algorithm's side state (built before the first episode), the summary of the session.
+  std::vector<std::string> files = {"episodes.csv", "summary.json"};
+  if (state_files_)
+    for (const auto& f : state_files_->file_names()) files.push_back(f);
+  for (const auto& f : files) fs::remove(dir_ / f);
   std::error_code ec;
   fs::remove_all(dir_ / "episodes", ec);
   if (ec) throw Error("cannot remove " + (dir_ / "episodes").string() + ": " + ec.message());
@@ -383,22 +389,12 @@ void RunDirectory::append_row(const std::string& row) {
   episodes_csv_text_ += row;
 }
 
-void RunDirectory::record_archive_progress(const algo::Status& status) {
-  if (status.phase != "archive") return;
-  const fs::path path = dir_ / "archive_progress.csv";
-  // Also a file left empty by a crash before its header was written.
-  const bool fresh = !fs::exists(path) || fs::file_size(path) == 0;
-  std::ofstream out(path, std::ios::app);
-  if (fresh) out << "evaluations,seconds,coverage,best_fitness,utc\n";
+void RunDirectory::record_status(const algo::Status& status) {
+  if (!state_files_) return;
   const double seconds =
       previous_seconds_ +
       std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_).count();
-  // A non-finite number (no elite yet) is an empty field, which CSV readers take as missing.
-  const auto field = [](double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : ""; };
-  out << fmt::format("{},{:.3f},{},{},{}\n", status.evaluations, seconds, field(status.coverage),
-                     field(status.best), now_iso());
-  out.flush();
-  if (!out) throw Error("cannot write " + path.string());
+  state_files_->on_status(status, seconds, dir_);
 }
 
 void RunDirectory::record(const algo::EpisodeRecord& rec) {
@@ -510,25 +506,8 @@ void RunDirectory::record_phase(const algo::PhaseRecord& phase) {
 }
 
 void RunDirectory::save_state(const algo::RunState& st) {
-  // The archive first (archive.csv carries its own MAP-Elites cursor), then the checkpoint.
-  const auto& a = st.archive;
-  if (a.archive && (a.archive != written_archive_ || a.complete != written_complete_)) {
-    ArchiveFileInfo info = archive_file_info(experiment_.task, experiment_.setup);
-    info.complete = a.complete;
-    info.cursor = a.cursor;
-    write_archive_file(dir_ / "archive.csv", *a.archive, info);
-    written_archive_ = a.archive;  // held, so that its address is not reused
-    written_complete_ = a.complete;
-    summary_["archive"] = {{"file", "archive.csv"},
-                           {"complete", a.complete},
-                           {"cells", a.archive->size()},
-                           {"total_cells", a.archive->total_cells()},
-                           {"coverage", a.archive->coverage()},
-                           {"best_fitness", a.archive->empty() ? nlohmann::json(nullptr)
-                                                               : number(a.archive->best().fitness)},
-                           {"evaluations", a.cursor.evaluations}};
-    write_summary("running");
-  }
+  // The side state first (its files carry their own progress), then the checkpoint.
+  if (state_files_ && state_files_->save(st.side_state, dir_, &summary_)) write_summary("running");
   nlohmann::json data_x = nlohmann::json::array(), data_u = nlohmann::json::array(),
                  data_dx = nlohmann::json::array();
   for (const auto& t : st.data) {
@@ -892,51 +871,19 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
                                 "or start the run again");
     rd->file_sha256_[rel] = value.get<std::string>();
   }
-  // 5. archive.csv, for an algorithm that keeps an archive (IT&E). It is not among the checksums:
-  // it is written before checkpoint.json and carries its own MAP-Elites cursor, so one newer than
-  // the checkpoint (a crash between the two writes) is continued from, not refused; the reader
-  // checks every line of it.
-  if (fs::exists(dir / "archive.csv")) {
-    ArchiveFile file;
-    try {
-      file = read_archive_file(dir / "archive.csv");
-    } catch (const std::exception& ex) {
-      throw RunDirectoryDamaged(std::string(ex.what()) +
-                                ": restore the file or start the run again");
-    }
-    state->archive.archive = file.archive;
-    state->archive.complete = file.info.complete;
-    state->archive.cursor = file.info.cursor;
-    rd->written_archive_ = file.archive;
-    rd->written_complete_ = file.info.complete;
-    // archive_progress.csv may run past the archive's cursor (rows of generations the resumed
-    // run evaluates again): keep its rows up to the cursor.
-    const fs::path progress = dir / "archive_progress.csv";
-    if (fs::exists(progress)) {
-      std::istringstream in(read_file_text(progress));
-      std::string line, kept;
-      int dropped = 0;
-      for (bool header = true; std::getline(in, line); header = false) {
-        // A whole row has 5 fields and ends with the time (a crash may have cut the last one).
-        const bool whole = std::count(line.begin(), line.end(), ',') == 4 && line.back() == 'Z';
-        if (header || (whole && std::atol(line.c_str()) <= file.info.cursor.evaluations))
-          kept += line + "\n";
-        else
-          ++dropped;
-      }
-      if (dropped > 0) {
-        write_file_atomically(progress, kept);
-        rd->repairs_.push_back(fmt::format(
-            "removed {} of archive_progress.csv past the archive's {} evaluations",
-            plural(static_cast<std::size_t>(dropped), "row"), file.info.cursor.evaluations));
-      }
-    }
-  } else if (k == 0 && !(summary.contains("phases") && !summary["phases"].empty())) {
-    // Before the first real episode a checkpoint holds an archive (IT&E) or follows a phase
-    // (PILCO with priors' simulation, recorded in summary.json "phases").
-    throw RunDirectoryDamaged(cp_path.string() + " covers no episode and " +
-                              (dir / "archive.csv").string() +
-                              " is missing: restore the file or start the run again");
+  // 5. The algorithm's side state (IT&E's archive), checked by its own reader: it is not among
+  // the checksums, since it is written before checkpoint.json and may be newer than it.
+  const bool side =
+      rd->state_files_ && rd->state_files_->load(dir, &state->side_state, &rd->repairs_);
+  if (!side && k == 0 && !(summary.contains("phases") && !summary["phases"].empty())) {
+    // Before the first real episode a checkpoint holds a side state (IT&E's archive) or follows
+    // a phase (PILCO with priors' simulation, recorded in summary.json "phases").
+    const bool has_files = rd->state_files_ && !rd->state_files_->file_names().empty();
+    throw RunDirectoryDamaged(
+        cp_path.string() + " covers no episode and " +
+        (has_files ? (dir / rd->state_files_->file_names().front()).string() + " is missing"
+                   : std::string("no phase is recorded")) +
+        ": restore the file or start the run again");
   }
 
   std::vector<fs::path> later_folders;
@@ -1085,11 +1032,11 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
       if (s.contains("variant_style") && s["variant_style"].is_object())
         run.variant_style = style_from_json(s["variant_style"], run.variant_style);
       if (!have_config) {
-        run.uses_prior = s.value("uses_prior", run.model_type != "gp");
-        run.uses_model = s.value("uses_model", true);
+        run.uses_prior = s.at("uses_prior").get<bool>();
+        run.uses_model = s.at("uses_model").get<bool>();
       }
       if (run.prior.empty()) run.prior = s.value("prior", std::string());
-      if (s.contains("report")) run.report = report_from_json(s["report"], run.report);
+      run.report = report_from_json(s.at("report"));
       if (run.report.panel.label.empty()) run.report.panel.label = run.prior;
       if (run.seed < 0 && s.contains("seed") && s["seed"].is_number_integer())
         run.seed = s["seed"].get<std::int64_t>();
@@ -1098,10 +1045,8 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
       if (s.contains("phi_actual"))
         for (const auto& v : s["phi_actual"])
           run.phi_actual.push_back(v.is_number() ? v.get<double>() : kNaN);
-      if (s.contains("state_names"))
-        run.state_names = s["state_names"].get<std::vector<std::string>>();
-      if (s.contains("action_names"))
-        run.action_names = s["action_names"].get<std::vector<std::string>>();
+      run.state_names = s.at("state_names").get<std::vector<std::string>>();
+      run.action_names = s.at("action_names").get<std::vector<std::string>>();
       static const std::vector<std::string> kEpisodeKeys = {
           "episode", "interaction_time_s", "real_return", "predicted_return", "solved",
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
@@ -1162,7 +1107,8 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
     }
   }
   run.solved = run.first_solved_episode.has_value();
-  // Also for runs written before the panel of a model-free run was its own.
+  // A run not started yet has config.yaml's task report only: give it a run's panel (a no-op for
+  // summary.json's, which is a run's already).
   run.report = run_report_info(std::move(run.report), run.uses_prior, run.uses_model);
 
   run.variant = run.model_type;

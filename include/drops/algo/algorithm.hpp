@@ -5,6 +5,7 @@
 /// variants (black_drops.hpp) and the direct search (direct_search.hpp) implement it; drops's
 /// experiment layer writes every algorithm's episodes in one run-directory format.
 
+#include <any>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -15,8 +16,6 @@
 #include <vector>
 
 #include "drops/core/problem.hpp"
-#include "drops/ite/archive.hpp"
-#include "drops/ite/map_elites.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/opt/cmaes.hpp"
 #include "drops/policy/policy.hpp"
@@ -118,17 +117,6 @@ std::optional<Calibration> calibration(const EpisodeRecord& rec);
 /// other code reads them.
 using StateVectors = std::map<std::string, VectorXd>;
 
-/// A MAP-Elites archive that an algorithm built, is building or was given (IT&E), with where its
-/// generation stands. The experiment layer saves it beside the checkpoint (the run directory's
-/// archive.csv), not inside checkpoint.json.
-struct ArchiveState {
-  std::shared_ptr<const ite::Archive> archive;  ///< null when the algorithm has none
-  /// True once the archive is final (MAP-Elites used its budget, or the archive was given).
-  bool complete = false;
-  /// Where the MAP-Elites run that builds it stands: with `archive`, what continues it exactly.
-  ite::MapElitesCursor cursor;
-};
-
 /// An algorithm between two episodes: everything the next episodes depend on. episodes_done may be
 /// 0 for an algorithm with work before its first episode (PILCO with priors saves its simulation
 /// phase's results). Every random stream
@@ -143,10 +131,14 @@ struct RunState {
   model::ModelState model;           ///< the model's warm starts after the last learn()
   /// The algorithm's own state, serialised by its own struct (see StateVectors).
   StateVectors extra;
-  /// The algorithm's MAP-Elites archive (IT&E), saved beside the checkpoint; empty otherwise. An
-  /// algorithm may hand out a state with episodes_done = 0 and an archive (IT&E during and after
-  /// its archive generation), so that a long generation is resumable too.
-  ArchiveState archive;
+  /// The algorithm's own state that is kept in files of its own beside checkpoint.json rather
+  /// than in it (large, or in a format users read), of a type the algorithm defines: IT&E's
+  /// archive (algo::ArchiveState in ite.hpp, archive.csv). Empty for the other algorithms. The
+  /// experiment layer's plugin of the algorithm saves and reads it (experiment::StateFiles); no
+  /// other code looks inside. An algorithm may hand out a state with episodes_done = 0 and a side
+  /// state (IT&E during and after its archive generation), so that a long generation is
+  /// resumable too.
+  std::any side_state;
 };
 
 /// Live status for progress displays.

@@ -78,8 +78,23 @@ struct IteOptions {
 inline constexpr std::uint64_t kIteArchiveStream = 0x17E0A;      ///< {tag}: MAP-Elites' seed
 inline constexpr std::uint64_t kIteRealEpisodeStream = 0x17E0E;  ///< {episode, tag}
 
+/// IT&E's MAP-Elites archive, built, being built or given, with where its generation stands: Ite's
+/// side state (RunState::side_state), which the run directory saves beside the checkpoint as
+/// archive.csv (experiment/archive_file.hpp), not inside checkpoint.json.
+struct ArchiveState {
+  std::shared_ptr<const ite::Archive> archive;  ///< never null in a state Ite hands out
+  /// True once the archive is final (MAP-Elites used its budget, or the archive was given).
+  bool complete = false;
+  /// Where the MAP-Elites run that builds it stands: with `archive`, what continues it exactly.
+  ite::MapElitesCursor cursor;
+};
+
+/// The archive a state carries (its side_state), or null when it carries none. Throws
+/// drops::Error when its side state is of another algorithm's type. Thread-safe.
+const ArchiveState* archive_state(const RunState& state);
+
 /// IT&E's adaptation so far, its own part of a RunState (in RunState::extra; the archive travels
-/// in RunState::archive): every trial in order. Written and read only by Ite.
+/// as its side state, ArchiveState): every trial in order. Written and read only by Ite.
 struct IteTrials {
   std::vector<std::int64_t> cells;  ///< linear cell index of each trial (Archive::cell_from_linear)
   std::vector<double> returns;      ///< its real return
@@ -97,8 +112,8 @@ struct IteTrials {
 ///   2. the adaptation: M-BOA over the archive's cells, each trial a real episode of the cell's
 ///      elite (recorded through on_episode like any episode), until the stopping rule or
 ///      `episodes` trials; then after_stop.
-/// on_state receives the archive (RunState::archive) during its generation, once it is complete
-/// (episodes_done = 0), and after each episode with the trials so far (RunState::extra), so that
+/// on_state receives the archive (ArchiveState, the state's side_state) during its generation,
+/// once it is complete (episodes_done = 0), and after each episode with the trials so far (RunState::extra), so that
 /// the run resumes exactly. Progress of the generation goes to on_status (phase "archive").
 /// The same seed gives the same archive and the same trials whatever the thread count.
 class Ite final : public Algorithm {

@@ -62,6 +62,9 @@ struct Experiment {
   TaskSetup setup;
   ReportInfo report;          ///< run_report_info of TaskPlugin::report_info of the settings
   std::unique_ptr<algo::Algorithm> runner;  ///< the configured algorithm
+  /// Makes the files of the algorithm's side state for a run directory (AlgorithmPlugin::
+  /// state_files); empty when the algorithm keeps none.
+  StateFilesFactory state_files;
   /// "<task>-<variant>-<prior>-seed<seed>" (without the prior when the algorithm uses none),
   /// followed by "-" and `stamp` when not empty.
   std::string default_run_name(const std::string& stamp) const;

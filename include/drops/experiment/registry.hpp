@@ -19,6 +19,7 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/experiment/state_files.hpp"
 
 namespace drops::experiment {
 
@@ -244,6 +245,14 @@ class AlgorithmPlugin {
   /// the key on invalid combinations.
   virtual std::unique_ptr<algo::Algorithm> make(const Settings& settings,
                                                 const TaskSetup& setup) const = 0;
+  /// What makes the files of the algorithm's side state (algo::RunState::side_state), one
+  /// StateFiles per run directory of these settings (it must not refer to `settings` or `setup`,
+  /// which it outlives); empty when the algorithm keeps none (the default). make_experiment
+  /// stores it as Experiment::state_files.
+  virtual StateFilesFactory state_files(const Settings& settings, const TaskSetup& setup) const {
+    (void)settings, (void)setup;
+    return {};
+  }
 };
 
 /// The tasks, algorithms and model variants an application offers. Not thread-safe while

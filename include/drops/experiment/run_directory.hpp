@@ -58,6 +58,12 @@ inline constexpr int kRunDirectoryFormatVersion = 1;
 /// use the drops that wrote the run or to run it again. Thread-safe.
 void check_run_directory_format(const std::filesystem::path& dir);
 
+/// What summary.json of a run directory of `e` holds when the run starts (format version 1): the
+/// task, algorithm, variant and its style, whether it uses a prior and a model, the prior's
+/// label, the report block (ReportInfo), seed, planned episodes, phi's names and actual values,
+/// the trajectory columns' names, the start time and no episode. read_run needs every member.
+/// Thread-safe.
+nlohmann::json summary_head(const Experiment& e);
 /// The whole content of the file at path (binary). Throws drops::Error "cannot read PATH" when
 /// it cannot be opened. Thread-safe.
 std::string read_file_text(const std::filesystem::path& path);
@@ -110,7 +116,7 @@ class RunDirectory {
                                                      const Experiment& experiment);
 
   /// Reopens an existing run directory to continue it: takes the lock, reads checkpoint.json (and
-  /// archive.csv, when there is one, into state->archive) into *state and checks the directory
+  /// the algorithm's side state, StateFiles::load, into state->side_state) into *state and checks the directory
   /// against it, then removes what was recorded after it.
   /// experiment must be the one of DIR/config.yaml (with the episodes= and threads= of the resumed
   /// session); config_yaml is to_yaml of its settings, written to DIR/config.yaml when it differs
@@ -121,9 +127,10 @@ class RunDirectory {
   /// key of the configuration the run was started with is in config.yaml with the same value
   /// (episodes and threads aside); the first episodes_done rows of episodes.csv,
   /// the first episodes_done entries of summary.json's "episodes" and every file of episodes/NNN
-  /// up to episodes_done have the checksums recorded in the checkpoint; archive.csv, which carries
-  /// its own MAP-Elites cursor and may be newer than the checkpoint, is checked by its reader
-  /// (RunDirectoryDamaged naming the file and line).
+  /// up to episodes_done have the checksums recorded in the checkpoint; the files of the
+  /// algorithm's side state (IT&E's archive.csv, which carries its own MAP-Elites cursor and may
+  /// be newer than the checkpoint) are checked by their reader (RunDirectoryDamaged naming the
+  /// file and line).
   ///
   /// Repairs (listed by repairs()): rows of episodes.csv after episodes_done (also a last row cut
   /// mid-line by a crash), summary entries of later episodes and episodes/NNN folders of later
@@ -132,7 +139,7 @@ class RunDirectory {
   ///
   /// Without checkpoint.json and without a finished episode (a run stopped or killed during its
   /// first one: nothing was recorded), the run starts from its beginning in DIR: what the session
-  /// left (episodes.csv, summary.json, episodes/, archive.csv, archive_progress.csv) is removed,
+  /// left (episodes.csv, summary.json, episodes/, the side state's files) is removed,
   /// *state is left untouched and has_checkpoint() is false (the caller runs the algorithm from
   /// the start); repairs() says so.
   ///
@@ -154,19 +161,15 @@ class RunDirectory {
   /// summary.json under "phases".<name> (its summary's numbers and texts, and "episodes": one
   /// object per episode of the phase), replacing an earlier record of the same name.
   void record_phase(const algo::PhaseRecord& phase);
-  /// Appends one row to archive_progress.csv for a status of phase "archive" (IT&E's MAP-Elites
-  /// on the prior; other phases are ignored): evaluations so far, seconds (wall clock of the run,
-  /// earlier sessions included as summary.json counted them), coverage in [0, 1], the archive's
-  /// best fitness (the task's return) and the UTC time. The file is created with its header on
-  /// the first row; a resumed run continues it (reopen() drops the rows past the archive's
-  /// cursor). One row per MAP-Elites generation (ite.batch offspring), so the curve of coverage
-  /// against evaluations or time can be drawn from it (docs/ite.md, "The run directory").
-  /// Throws drops::Error when the file cannot be written. Not thread-safe (caller's thread).
-  void record_archive_progress(const algo::Status& status);
+  /// Hands a status of the running algorithm to the files of its side state
+  /// (StateFiles::on_status; IT&E: a row of archive_progress.csv per MAP-Elites generation) with
+  /// the run's wall-clock seconds, earlier sessions included as summary.json counted them.
+  /// Throws drops::Error when a file cannot be written. Not thread-safe (caller's thread).
+  void record_status(const algo::Status& status);
   /// Writes checkpoint.json (atomically): doubles in the shortest form that reads back exactly,
-  /// so a resumed run is bit-identical to an uninterrupted one. When the state holds an archive
-  /// that was not written yet (another one, or now complete), writes it first as archive.csv
-  /// (with its MAP-Elites cursor) and records it in summary.json ("archive").
+  /// so a resumed run is bit-identical to an uninterrupted one. Before it, the algorithm's side
+  /// state goes to its own files when it changed (StateFiles::save; IT&E: archive.csv with its
+  /// MAP-Elites cursor, recorded in summary.json "archive").
   void save_state(const algo::RunState& state);
   /// Rewrites summary.json with the final status ("complete", "interrupted" or "failed").
   void finish(const algo::RunSummary& summary, const std::string& status,
@@ -191,11 +194,10 @@ class RunDirectory {
   double previous_seconds_ = 0;  ///< wall-clock time of earlier sessions of a resumed run
   /// When this session opened the directory (archive_progress.csv's seconds).
   std::chrono::steady_clock::time_point opened_ = std::chrono::steady_clock::now();
-  std::shared_ptr<const ite::Archive> written_archive_;  ///< last written to archive.csv
-  bool written_complete_ = false;                  ///< whether it was complete then
   bool has_checkpoint_ = false;
   std::filesystem::path dir_;
   const Experiment& experiment_;
+  std::unique_ptr<StateFiles> state_files_;  ///< the algorithm's side state's files (may be null)
   std::ofstream episodes_csv_;
   std::string episodes_csv_text_;  ///< every byte written to episodes.csv (for its checksum)
   /// SHA-256 of each file of episodes/NNN, by path relative to the run directory.
@@ -265,8 +267,7 @@ struct RunResult {
   std::vector<std::string> phi_names;       ///< names of phi's components
   std::vector<double> phi_actual;           ///< phi of the real system (dim = phi_names)
   std::vector<std::string> phi_tunable;     ///< the tunable names (ReportInfo::phi_tunable)
-  /// Names of the trajectory files' state (dim E) and action (dim U) columns (summary.json);
-  /// empty for runs written before summary.json recorded them.
+  /// Names of the trajectory files' state (dim E) and action (dim U) columns (summary.json).
   std::vector<std::string> state_names, action_names;
   /// The resolved values of the task's own keys (TaskPlugin::keys) in config.yaml, numbers in
   /// their shortest form, without the prior's keys (TaskPlugin::is_prior_key) when the run uses

@@ -126,7 +126,7 @@ TEST(HexapodIte, ATinyRunBuildsAnArchiveOnThePriorAndRunsOneRealTrial) {
   algo::Callbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { records.push_back(r); };
   cb.on_state = [&](const algo::RunState& s) {
-    if (s.archive.archive) archive = s.archive;
+    if (const auto* a = algo::archive_state(s)) archive = *a;
   };
   const auto summary = e.runner->run(e.setup.problem(), cb);
   ASSERT_EQ(records.size(), 1u);
