@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -467,41 +468,106 @@ Plan learned_plan(const Setting& s, LoopState& st, const PriorMean& prior, std::
 }
 
 // ---------------------------------------------------------------------------------------------
-// The state saved between episodes.
+// The state saved between episodes: PILCO's own part of a RunState.
 
-std::string key(const char* what, Index a) {
-  return std::string("prior.") + std::to_string(a) + "." + what;
+/// Episode 1 of PILCO with priors, planned on the simulation model.
+struct SimulationResult {
+  PriorMean prior;        ///< per output, the posterior mean of the GP that chose theta
+  VectorXd theta;         ///< theta_sim, the simulation phase's last policy
+  Prediction prediction;  ///< theta's prediction on the simulation model
+};
+
+/// The simulation phase so far, saved after each simulated episode but the last (episodes_done
+/// stays 0) so that a run stopped during the phase continues it where it was.
+struct PartialSimulation {
+  int episodes = 0;              ///< simulated episodes done, in [1, sim_episodes - 1]
+  LoopState state;               ///< the phase's transitions, policy and GP warm starts
+  std::vector<Details> records;  ///< per simulated episode, its record
+  double seconds = 0;            ///< the phase's elapsed seconds
+};
+
+/// What a saved state must fit: the run's sizes and whether it has a simulation phase.
+struct StateShape {
+  Index state_dim = 0;           ///< D
+  Index control_dim = 0;         ///< U
+  Index horizon = 0;             ///< H
+  Index dynamics_input_dim = 0;  ///< Din: the GPs' inputs [x_aug[dynamics_inputs], u]
+  bool with_prior = false;       ///< PILCO with priors
+  int sim_episodes = 0;          ///< PilcoOptions::sim_episodes
+};
+
+/// PILCO's own part of a RunState (RunState::extra, checkpoint.json "extra"), written and read
+/// only by run_pilco. A state saved during the simulation phase holds only partial_simulation; one
+/// saved after it holds theta (once there is one) and, with a prior, the simulation result.
+struct PilcoOwnState {
+  /// The real phase's current policy (empty before its first optimisation).
+  VectorXd theta;
+  /// With a prior: the simulation phase's result.
+  std::optional<SimulationResult> simulation;
+  /// With a prior: the simulation phase so far, when the run stopped during it.
+  std::optional<PartialSimulation> partial_simulation;
+
+  /// Its entries of RunState::extra (none for an empty field).
+  StateVectors save() const;
+  /// Reads it back from RunState::extra. With shape.with_prior, a state that holds a partial
+  /// simulation gives that alone; any other gives theta (when it has one) and the simulation
+  /// result, whose entries are then required. Without a prior, theta only. Throws InvalidArgument
+  /// naming the entry when one is missing or does not fit `shape`.
+  static PilcoOwnState load(const StateVectors& extra, const StateShape& shape);
+};
+
+// PilcoOwnState's entries. Matrices are stored flat in column-major order, a number as a vector
+// of one.
+constexpr const char* kThetaKey = "theta";  // the real phase's current policy
+// Per output a of the prior mean: "prior.<a>.centres" (centres x Din), "prior.<a>.weights"
+// (centres), "prior.<a>.length_scales" (Din), "prior.<a>.signal_variance".
+constexpr const char* kPriorKey = "prior.";
+constexpr const char* kSimulationThetaKey = "simulation.theta";
+constexpr const char* kPredictedStatesKey = "simulation.predicted_states";    // (H + 1) x D
+constexpr const char* kPredictedActionsKey = "simulation.predicted_actions";  // H x U
+constexpr const char* kPredictedRewardsKey = "simulation.predicted_rewards";  // H
+constexpr const char* kPredictedReturnKey = "simulation.predicted_return";
+// The partial simulation's entries are kPartialKey followed by "episodes", "seconds", "data"
+// (transitions x [x, u, dx]; absent without transitions), "theta" (absent before the first
+// optimisation), "h.<a>" per output a, "number.<name>" and "number_kind.<name>" per number of the
+// records (see write_partial_simulation), "text.<name>" per text of the records (each episode's
+// text as its bytes, followed by a 0).
+constexpr const char* kPartialKey = "simulation.partial.";
+
+std::string prior_key(const char* what, Index a) {
+  return std::string(kPriorKey) + std::to_string(a) + "." + what;
 }
 
 VectorXd flat(const MatrixXd& m) { return Eigen::Map<const VectorXd>(m.data(), m.size()); }
 
-void save_prior(const PriorMean& prior, RunState& st) {
-  for (Index a = 0; a < static_cast<Index>(prior.size()); ++a) {
-    const auto& b = prior[static_cast<std::size_t>(a)];
-    st.extra[key("centres", a)] = flat(b.centres);
-    st.extra[key("weights", a)] = b.weights;
-    st.extra[key("length_scales", a)] = b.length_scales;
-    st.extra[key("signal_variance", a)] = VectorXd::Constant(1, b.signal_variance);
-  }
-}
-
-const VectorXd& extra(const RunState& st, const std::string& k) {
-  const auto it = st.extra.find(k);
-  if (it == st.extra.end()) throw InvalidArgument("resume: the state has no '" + k + "'");
+/// The entry `k`; throws InvalidArgument naming it when the state has none.
+const VectorXd& entry(const StateVectors& extra, const std::string& k) {
+  const auto it = extra.find(k);
+  if (it == extra.end()) throw InvalidArgument("resume: the state has no '" + k + "'");
   return it->second;
 }
 
-PriorMean restore_prior(const RunState& st, Index outputs, Index input_dim) {
+void write_prior(const PriorMean& prior, StateVectors& extra) {
+  for (Index a = 0; a < static_cast<Index>(prior.size()); ++a) {
+    const auto& b = prior[static_cast<std::size_t>(a)];
+    extra[prior_key("centres", a)] = flat(b.centres);
+    extra[prior_key("weights", a)] = b.weights;
+    extra[prior_key("length_scales", a)] = b.length_scales;
+    extra[prior_key("signal_variance", a)] = VectorXd::Constant(1, b.signal_variance);
+  }
+}
+
+PriorMean read_prior(const StateVectors& extra, Index outputs, Index input_dim) {
   PriorMean prior;
   for (Index a = 0; a < outputs; ++a) {
     pilco::SeBlock b;
-    const VectorXd& c = extra(st, key("centres", a));
+    const VectorXd& c = entry(extra, prior_key("centres", a));
     if (c.size() % input_dim != 0)
-      throw InvalidArgument("resume: " + key("centres", a) + " does not hold whole centres");
+      throw InvalidArgument("resume: " + prior_key("centres", a) + " does not hold whole centres");
     b.centres = Eigen::Map<const MatrixXd>(c.data(), c.size() / input_dim, input_dim);
-    b.weights = extra(st, key("weights", a));
-    b.length_scales = extra(st, key("length_scales", a));
-    const VectorXd& sv = extra(st, key("signal_variance", a));
+    b.weights = entry(extra, prior_key("weights", a));
+    b.length_scales = entry(extra, prior_key("length_scales", a));
+    const VectorXd& sv = entry(extra, prior_key("signal_variance", a));
     check_size("resume: prior signal variance", 1, sv.size());
     b.signal_variance = sv[0];
     prior.push_back(std::move(b));
@@ -516,56 +582,38 @@ PriorMean restore_prior(const RunState& st, Index outputs, Index input_dim) {
   return prior;
 }
 
-/// Episode 1 of PILCO with priors, planned on the simulation model.
-struct SimulationResult {
-  PriorMean prior;
-  VectorXd theta;
-  Prediction prediction;
-};
-
-void save_simulation(const SimulationResult& sim, RunState& st) {
-  save_prior(sim.prior, st);
-  st.extra["simulation.theta"] = sim.theta;
+void write_simulation(const SimulationResult& sim, StateVectors& extra) {
+  write_prior(sim.prior, extra);
+  extra[kSimulationThetaKey] = sim.theta;
   const auto& t = sim.prediction.trajectory;
-  st.extra["simulation.predicted_states"] = flat(t.states);
-  st.extra["simulation.predicted_actions"] = flat(t.actions);
-  st.extra["simulation.predicted_rewards"] = t.rewards;
-  st.extra["simulation.predicted_return"] = VectorXd::Constant(1, sim.prediction.predicted_return);
+  extra[kPredictedStatesKey] = flat(t.states);
+  extra[kPredictedActionsKey] = flat(t.actions);
+  extra[kPredictedRewardsKey] = t.rewards;
+  extra[kPredictedReturnKey] = VectorXd::Constant(1, sim.prediction.predicted_return);
 }
 
-SimulationResult restore_simulation(const RunState& st, Index D, Index U, Index H, Index Din) {
+SimulationResult read_simulation(const StateVectors& extra, const StateShape& shape) {
+  const Index D = shape.state_dim, U = shape.control_dim, H = shape.horizon;
   SimulationResult sim;
-  sim.prior = restore_prior(st, D, Din);
-  sim.theta = extra(st, "simulation.theta");
-  const VectorXd& xs = extra(st, "simulation.predicted_states");
-  const VectorXd& us = extra(st, "simulation.predicted_actions");
-  check_size("resume: simulation.predicted_states", (H + 1) * D, xs.size());
-  check_size("resume: simulation.predicted_actions", H * U, us.size());
+  sim.prior = read_prior(extra, D, shape.dynamics_input_dim);
+  sim.theta = entry(extra, kSimulationThetaKey);
+  const VectorXd& xs = entry(extra, kPredictedStatesKey);
+  const VectorXd& us = entry(extra, kPredictedActionsKey);
+  check_size((std::string("resume: ") + kPredictedStatesKey).c_str(), (H + 1) * D, xs.size());
+  check_size((std::string("resume: ") + kPredictedActionsKey).c_str(), H * U, us.size());
   sim.prediction.trajectory.states = Eigen::Map<const MatrixXd>(xs.data(), H + 1, D);
   sim.prediction.trajectory.actions = Eigen::Map<const MatrixXd>(us.data(), H, U);
-  sim.prediction.trajectory.rewards = extra(st, "simulation.predicted_rewards");
-  check_size("resume: simulation.predicted_rewards", H, sim.prediction.trajectory.rewards.size());
-  sim.prediction.predicted_return = extra(st, "simulation.predicted_return")[0];
+  sim.prediction.trajectory.rewards = entry(extra, kPredictedRewardsKey);
+  check_size((std::string("resume: ") + kPredictedRewardsKey).c_str(), H,
+             sim.prediction.trajectory.rewards.size());
+  sim.prediction.predicted_return = entry(extra, kPredictedReturnKey)[0];
   return sim;
 }
 
-// The simulation phase so far, saved after each simulated episode but the last (episodes_done
-// stays 0) so that a run stopped during the phase continues it where it was: the phase's
-// transitions, policy, GP warm starts, elapsed seconds and per-episode records. Texts are stored
-// as their bytes, each followed by a 0.
-constexpr const char* kPartial = "simulation.partial.";
-
-struct PartialSimulation {
-  int episodes = 0;
-  LoopState state;
-  std::vector<Details> records;
-  double seconds = 0;
-};
-
-void save_partial_simulation(const PartialSimulation& p, RunState& st) {
-  const std::string k = kPartial;
-  st.extra[k + "episodes"] = VectorXd::Constant(1, p.episodes);
-  st.extra[k + "seconds"] = VectorXd::Constant(1, p.seconds);
+void write_partial_simulation(const PartialSimulation& p, StateVectors& extra) {
+  const std::string k = kPartialKey;
+  extra[k + "episodes"] = VectorXd::Constant(1, p.episodes);
+  extra[k + "seconds"] = VectorXd::Constant(1, p.seconds);
   const auto& data = p.state.data;
   if (!data.empty()) {
     const Index D = data.front().x.size(), U = data.front().u.size();
@@ -573,11 +621,11 @@ void save_partial_simulation(const PartialSimulation& p, RunState& st) {
     for (std::size_t i = 0; i < data.size(); ++i)
       rows.row(static_cast<Index>(i)) << data[i].x.transpose(), data[i].u.transpose(),
           data[i].dx.transpose();
-    st.extra[k + "data"] = flat(rows);
+    extra[k + "data"] = flat(rows);
   }
-  if (p.state.theta.size()) st.extra[k + "theta"] = p.state.theta;
+  if (p.state.theta.size()) extra[k + "theta"] = p.state.theta;
   for (std::size_t a = 0; a < p.state.h.size(); ++a)
-    st.extra[k + "h." + std::to_string(a)] = p.state.h[a];
+    extra[k + "h." + std::to_string(a)] = p.state.h[a];
   // Numbers per key as two vectors over the episodes: the values (non-finite ones as 0, as the
   // checkpoint's JSON has no NaN) and their kinds (0 absent, 1 finite, 2 NaN, 3 +inf, 4 -inf).
   std::map<std::string, std::pair<VectorXd, VectorXd>> numbers;
@@ -604,29 +652,29 @@ void save_partial_simulation(const PartialSimulation& p, RunState& st) {
         for (const unsigned char c : it->second) bytes.push_back(c);
       bytes.push_back(0);
     }
-    st.extra[k + "text." + key] = Eigen::Map<const VectorXd>(bytes.data(), bytes.size());
+    extra[k + "text." + key] = Eigen::Map<const VectorXd>(bytes.data(), bytes.size());
   }
   for (auto& [key, v] : numbers) {
-    st.extra[k + "number." + key] = std::move(v.first);
-    st.extra[k + "number_kind." + key] = std::move(v.second);
+    extra[k + "number." + key] = std::move(v.first);
+    extra[k + "number_kind." + key] = std::move(v.second);
   }
 }
 
-bool has_partial_simulation(const RunState& st) {
-  return st.extra.count(std::string(kPartial) + "episodes") > 0;
+bool has_partial_simulation(const StateVectors& extra) {
+  return extra.count(std::string(kPartialKey) + "episodes") > 0;
 }
 
-PartialSimulation restore_partial_simulation(const RunState& st, Index D, Index U, Index H,
-                                             Index Din, int sim_episodes) {
-  const std::string k = kPartial;
+PartialSimulation read_partial_simulation(const StateVectors& extra, const StateShape& shape) {
+  const Index D = shape.state_dim, U = shape.control_dim, H = shape.horizon;
+  const std::string k = kPartialKey;
   PartialSimulation p;
-  p.episodes = static_cast<int>(extra(st, k + "episodes")[0]);
-  if (p.episodes < 1 || p.episodes >= sim_episodes)
+  p.episodes = static_cast<int>(entry(extra, k + "episodes")[0]);
+  if (p.episodes < 1 || p.episodes >= shape.sim_episodes)
     throw InvalidArgument("resume: " + k + "episodes = " + std::to_string(p.episodes) +
-                          " is outside [1, " + std::to_string(sim_episodes - 1) + "]");
-  p.seconds = extra(st, k + "seconds")[0];
+                          " is outside [1, " + std::to_string(shape.sim_episodes - 1) + "]");
+  p.seconds = entry(extra, k + "seconds")[0];
   const Index width = 2 * D + U;
-  const VectorXd& d = extra(st, k + "data");
+  const VectorXd& d = entry(extra, k + "data");
   check_size(("resume: " + k + "data (episodes x horizon x (2 D + U))").c_str(),
              static_cast<long>(p.episodes) * H * width, d.size());
   const Eigen::Map<const MatrixXd> rows(d.data(), d.size() / width, width);
@@ -634,17 +682,18 @@ PartialSimulation restore_partial_simulation(const RunState& st, Index D, Index 
     p.state.data.push_back(
         {rows.row(i).head(D).transpose(), rows.row(i).segment(D, U).transpose(),
          rows.row(i).tail(D).transpose()});
-  if (const auto it = st.extra.find(k + "theta"); it != st.extra.end()) p.state.theta = it->second;
-  for (Index a = 0; st.extra.count(k + "h." + std::to_string(a)); ++a) {
-    p.state.h.push_back(extra(st, k + "h." + std::to_string(a)));
-    check_size("resume: simulation GP hyper-parameters", Din + 2, p.state.h.back().size());
+  if (const auto it = extra.find(k + "theta"); it != extra.end()) p.state.theta = it->second;
+  for (Index a = 0; extra.count(k + "h." + std::to_string(a)); ++a) {
+    p.state.h.push_back(entry(extra, k + "h." + std::to_string(a)));
+    check_size("resume: simulation GP hyper-parameters", shape.dynamics_input_dim + 2,
+               p.state.h.back().size());
   }
   p.records.resize(static_cast<std::size_t>(p.episodes));
   const std::string numbers = k + "number.", texts = k + "text.";
-  for (const auto& [key, v] : st.extra) {
+  for (const auto& [key, v] : extra) {
     if (key.rfind(numbers, 0) == 0) {
       const std::string name = key.substr(numbers.size());
-      const VectorXd& kind = extra(st, k + "number_kind." + name);
+      const VectorXd& kind = entry(extra, k + "number_kind." + name);
       check_size(("resume: " + key).c_str(), p.episodes, v.size());
       check_size(("resume: " + k + "number_kind." + name).c_str(), p.episodes, kind.size());
       for (int e = 0; e < p.episodes; ++e) {
@@ -672,6 +721,25 @@ PartialSimulation restore_partial_simulation(const RunState& st, Index D, Index 
     }
   }
   return p;
+}
+
+StateVectors PilcoOwnState::save() const {
+  StateVectors extra;
+  if (theta.size()) extra[kThetaKey] = theta;
+  if (simulation) write_simulation(*simulation, extra);
+  if (partial_simulation) write_partial_simulation(*partial_simulation, extra);
+  return extra;
+}
+
+PilcoOwnState PilcoOwnState::load(const StateVectors& extra, const StateShape& shape) {
+  PilcoOwnState own;
+  if (shape.with_prior && has_partial_simulation(extra)) {
+    own.partial_simulation = read_partial_simulation(extra, shape);
+    return own;
+  }
+  if (const auto it = extra.find(kThetaKey); it != extra.end()) own.theta = it->second;
+  if (shape.with_prior) own.simulation = read_simulation(extra, shape);
+  return own;
 }
 
 }  // namespace
@@ -792,14 +860,18 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     rs.best_return = best_return;
     rs.first_solved_episode = summary.first_solved_episode;
     rs.model.h_params = st.h;
-    if (st.theta.size()) rs.extra["theta"] = st.theta;
-    if (o.with_prior) save_simulation(sim, rs);
+    PilcoOwnState own;
+    own.theta = st.theta;
+    if (o.with_prior) own.simulation = sim;
+    rs.extra = own.save();
     callbacks.on_state(rs);
   };
 
   // 1. Resume, or (with a prior) the simulation phase: PILCO on the simulator at phi_0, itself
   // resumed when the run stopped during it.
-  const bool resume_simulation = resume && o.with_prior && has_partial_simulation(*resume);
+  const StateShape shape{D, U, task->horizon(), Din, o.with_prior, o.sim_episodes};
+  PilcoOwnState resumed = resume ? PilcoOwnState::load(resume->extra, shape) : PilcoOwnState{};
+  const bool resume_simulation = resumed.partial_simulation.has_value();
   if (resume && !resume_simulation) {
     if (resume->episodes_done < (o.with_prior ? 0 : 1) || resume->episodes_done > o.episodes)
       throw InvalidArgument("resume: episodes_done = " + std::to_string(resume->episodes_done) +
@@ -811,15 +883,14 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     st.data = resume->data;
     st.h = resume->model.h_params;
     for (const auto& h : st.h) check_size("resume: GP hyper-parameters", Din + 2, h.size());
-    if (const auto it = resume->extra.find("theta"); it != resume->extra.end())
-      st.theta = it->second;
+    st.theta = std::move(resumed.theta);
     best_theta = resume->best_theta;
     best_return = resume->best_return;
     summary.first_solved_episode = resume->first_solved_episode;
     summary.episodes_done = resume->episodes_done;
     summary.best_real_return = resume->episodes_done > 0 ? best_return : 0.0;
     if (o.with_prior) {
-      sim = restore_simulation(*resume, D, U, task->horizon(), Din);
+      sim = std::move(*resumed.simulation);  // load requires it with a prior
       prior_mean = sim.prior;
     }
     first_episode = resume->episodes_done + 1;
@@ -830,9 +901,7 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
     deterministic.sample = false;
     const rollout::ModelSystem simulator(*simulator_model, deterministic);
     PartialSimulation done_so_far;
-    if (resume_simulation)
-      done_so_far = restore_partial_simulation(*resume, D, U, task->horizon(), Din,
-                                               o.sim_episodes);
+    if (resume_simulation) done_so_far = std::move(*resumed.partial_simulation);
     LoopState ss = std::move(done_so_far.state);
     PhaseRecord phase;
     phase.name = "simulation";
@@ -882,13 +951,14 @@ RunSummary run_pilco(std::shared_ptr<const rollout::Task> task, const rollout::S
         callbacks.on_phase(so_far);
       }
       if (e < o.sim_episodes && callbacks.on_state) {
+        PilcoOwnState own;
+        own.partial_simulation =
+            PartialSimulation{.episodes = e,
+                              .state = ss,
+                              .records = phase.episodes,
+                              .seconds = seconds_before + seconds_since(t_sim)};
         RunState rs;
-        PartialSimulation p;
-        p.episodes = e;
-        p.state = ss;
-        p.records = phase.episodes;
-        p.seconds = seconds_before + seconds_since(t_sim);
-        save_partial_simulation(p, rs);
+        rs.extra = own.save();
         callbacks.on_state(rs);
       }
       last = std::move(plan);
