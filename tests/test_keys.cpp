@@ -19,6 +19,7 @@ enum class Mode { kFast, kExact };
 struct Inner {
   double tol = 0.01, tol_copy = 0.01;
   long budget = 1000;
+  long run_budget = 0;
 };
 
 struct Toy {
@@ -39,6 +40,10 @@ KeyTable<Inner> inner_table() {
   t.add("toy.inner.tol", [](auto& o) -> auto& { return o.tol; })
       .also([](auto& o) -> auto& { return o.tol_copy; })
       .range(0, 1);
+  // Declared before the key it follows: derived() rules run after every key is applied.
+  t.add("toy.inner.run_budget", [](auto& o) -> auto& { return o.run_budget; })
+      .derived([](const Inner& o) { return o.budget / 4; })
+      .range(0, 1e9);
   t.add("toy.inner.budget", [](auto& o) -> auto& { return o.budget; }).range(1, 1e9);
   return t;
 }
@@ -68,7 +73,7 @@ const KeySpec& spec(const std::vector<KeySpec>& specs, const std::string& key) {
 
 TEST(Keys, TheSpecsTypesAndDefaultsComeFromTheFieldsAndTheirInitialisers) {
   const auto specs = toy_table().specs();
-  ASSERT_EQ(specs.size(), 11u);
+  ASSERT_EQ(specs.size(), 12u);
   EXPECT_EQ(specs.front().key, "toy.count");  // declaration order
   const std::vector<std::vector<std::string>> want = {
       {"toy.count", "int", "3"},          {"toy.rate", "double", "0.25"},
@@ -104,7 +109,8 @@ TEST(Keys, ApplySetsEachFieldFromItsSetting) {
   Settings s = {{"toy.count", "7"},        {"toy.rate", "0.5"},          {"toy.on", "false"},
                 {"toy.path", "/tmp/x"},    {"toy.mode", "fast"},         {"toy.length", "2.5"},
                 {"toy.box", "[1, 3]"},     {"toy.picked", "[b]"},        {"toy.grid", ""},
-                {"toy.inner.tol", "0.001"}, {"toy.inner.budget", "5000"}};
+                {"toy.inner.tol", "0.001"}, {"toy.inner.budget", "5000"},
+                {"toy.inner.run_budget", ""}};
   Toy t;
   toy_table().apply(s, t);
   EXPECT_EQ(t.count, 7);
@@ -120,6 +126,12 @@ TEST(Keys, ApplySetsEachFieldFromItsSetting) {
   EXPECT_DOUBLE_EQ(t.inner.tol, 0.001);
   EXPECT_DOUBLE_EQ(t.inner.tol_copy, 0.001);  // also()
   EXPECT_EQ(t.inner.budget, 5000);
+  EXPECT_EQ(t.inner.run_budget, 1250);  // derived(): empty follows the budget, through include()
+  EXPECT_EQ(spec(toy_table().specs(), "toy.inner.run_budget").default_value, "");
+  s["toy.inner.run_budget"] = "0";
+  toy_table().apply(s, t);
+  EXPECT_EQ(t.inner.run_budget, 0);  // an explicit value wins
+  s["toy.inner.run_budget"] = "";
   s["toy.grid"] = "12";
   s["toy.length"] = "";
   toy_table().apply(s, t);

@@ -15,7 +15,7 @@ KeyTable<opt::CmaesOptions> cmaes_key_table() {
       .help("CMA-ES policy evaluations per optimization, all restarts; for algorithm=direct, the "
             "number of real episodes");
   t.add("optimizer.run_evaluations", [](auto& c) -> auto& { return c.max_run_evaluations; })
-      .optional()
+      .derived([](const auto& c) { return c.max_evaluations / 4; })
       .range(0, 100000000)
       .help("CMA-ES evaluations of one run before it restarts (empty = a quarter of "
             "optimizer.max_evaluations; 0 = no per-run budget): with a noisy objective the "

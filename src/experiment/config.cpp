@@ -307,16 +307,6 @@ void resolve_derived_defaults(const Registry& registry, Settings& settings) {
     const auto it = settings.find(key);
     if (it != settings.end() && it->second.empty()) it->second = value;
   }
-  // A run's budget follows the total: a quarter of it (at least 4 runs per search).
-  const auto run = settings.find("optimizer.run_evaluations");
-  const auto total = settings.find("optimizer.max_evaluations");
-  if (run != settings.end() && run->second.empty() && total != settings.end()) {
-    try {
-      run->second = std::to_string(std::stoll(total->second) / 4);
-    } catch (const std::exception&) {
-      // a malformed total is reported by the validation of optimizer.max_evaluations
-    }
-  }
 }
 
 namespace {

@@ -50,7 +50,7 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 /// Reads a YAML document (text) and applies key=value overrides (value parsed as YAML, so
 /// "prior.bounds.m1=[0.1, 1]" works). The task is the value of `task` after the overrides
 /// (default: the registry's default task); its schema (schema()) decides which keys exist. Fills
-/// the defaults (the task's schema's) and resolves the derived ones (resolve_derived_defaults). Throws ConfigError
+/// the defaults (the task's schema's; resolve_derived_defaults). Throws ConfigError
 /// naming the key, the value and what is allowed for unknown keys, wrong types and out-of-range
 /// values. An empty text gives the defaults.
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
@@ -59,11 +59,10 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
 Settings load_settings_file(const Registry& registry, const std::string& path,
                             const std::vector<std::string>& overrides);
 
-/// Replaces the empty value of a key whose default the task sets (TaskPlugin::shared_defaults,
-/// e.g. an algorithm key whose empty value means the algorithm's own default) by the task's, and
-/// an empty optimizer.run_evaluations by a quarter of optimizer.max_evaluations, so that a value
-/// given explicitly and the same value derived compare equal. Leaves settings of an unknown task
-/// unchanged. Thread-safe.
+/// Replaces the empty value of a key whose default the task sets (TaskPlugin::shared_defaults) by
+/// the task's, also for string keys and for settings not read by load_settings (which does it for
+/// the others). A default that follows other keys is the key's own (KeyTable's derived()). Leaves
+/// settings of an unknown task unchanged. Thread-safe.
 void resolve_derived_defaults(const Registry& registry, Settings& settings);
 
 /// Settings as a nested YAML document in schema order (the resolved config written into each run

@@ -54,6 +54,8 @@ class KeyTable {
     bool optional = false;  // default ""; an empty setting leaves the field as it is
     std::function<std::string(Options&)> text;  // the field's value as setting text (reads only)
     std::function<void(const Settings&, Options&)> set;
+    // derived(): sets the field from the others when the setting is empty (after every set)
+    std::function<void(Options&)> derive;
   };
 
  public:
@@ -97,11 +99,22 @@ class KeyTable {
       row_->spec.type = std::move(name);
       return *this;
     }
-    /// The default is "" and the help says what an empty value means (derived from other
-    /// settings, e.g. by resolve_derived_defaults, or the field's own default): an empty setting
-    /// leaves the field as it is.
+    /// The default is "" and the help says what an empty value means (the field's own default,
+    /// or derived()): an empty setting leaves the field as it is.
     Key& optional() {
       row_->optional = true;
+      return *this;
+    }
+    /// Makes the key optional() with a default that follows other fields: an empty setting sets
+    /// the field to rule(options) once every other key of the table is applied (e.g. a run's
+    /// budget, a quarter of the total). rule must not read another derived field.
+    template <class Rule>
+    Key& derived(Rule rule) {
+      row_->optional = true;
+      row_->derive = [field = field_, rule](Options& o) {
+        const T value = rule(static_cast<const Options&>(o));
+        std::invoke(field, o) = value;
+      };
       return *this;
     }
     /// The same value also goes to another field of the same type (e.g. two tolerances).
@@ -161,6 +174,8 @@ class KeyTable {
       row.set = [set = r.set, part](const Settings& s, Options& o) {
         set(s, std::invoke(part, o));
       };
+      if (r.derive)
+        row.derive = [derive = r.derive, part](Options& o) { derive(std::invoke(part, o)); };
     }
     return *this;
   }
@@ -178,11 +193,14 @@ class KeyTable {
   }
 
   /// Sets every declared field of `options` from validated settings (load_settings: every key of
-  /// the table present). Throws ConfigError naming the key for a value that does not convert, and
-  /// std::out_of_range for a missing key. Thread-safe.
+  /// the table present), then the derived() fields whose setting is empty. Throws ConfigError
+  /// naming the key for a value that does not convert, and std::out_of_range for a missing key.
+  /// Thread-safe.
   void apply(const Settings& settings, Options& options) const {
     for (const auto& r : rows_)
       if (!r.optional || !settings.at(r.spec.key).empty()) r.set(settings, options);
+    for (const auto& r : rows_)
+      if (r.derive && settings.at(r.spec.key).empty()) r.derive(options);
   }
 
   /// A default-constructed Options with every declared field set from settings (apply()). Throws
