@@ -3,7 +3,8 @@
 // after every `every` evaluations. A plain program, not a Google Benchmark: what it measures is a
 // curve (coverage against evaluations) and a rate (evaluations per second).
 //
-//   build/bench/ite_archive TASK EVALUATIONS EVERY [--save-at=N1,N2,... --save-dir=DIR] [key=value ...]
+//   build/bench/ite_archive TASK EVALUATIONS EVERY [--save-at=N1,N2,... --save-dir=DIR] [--cache-file]
+//                          [key=value ...]
 //   build/bench/ite_archive pendubot 200000 10000 threads=2
 //   build/bench/ite_archive hexapod 40000 2000 threads=2
 //   build/bench/ite_archive hexapod 1600000 100000 --save-at=100000,400000,1600000 --save-dir=a seed=1
@@ -13,7 +14,10 @@
 // on stderr. docs/benchmarks.md ("IT&E archive generation") holds the measured tables.
 // --save-at writes the archive as it stands once it has at least N evaluations, as
 // DIR/archive-N.csv (the archive file of docs/ite.md, usable as `ite.archive`): MAP-Elites is an
-// anytime algorithm, so one run gives the archives of every smaller budget.
+// anytime algorithm, so one run gives the archives of every smaller budget (the same archive as a
+// run with that budget, tested). --cache-file prints, instead, the file in which ite.archive_cache
+// keeps the archive of these settings (experiment::ite_archive_cache_file) and exits: the place
+// to put such an archive so that `drops run` and `drops campaign` adapt with it.
 #include <fmt/format.h>
 
 #include <chrono>
@@ -39,7 +43,7 @@ using namespace drops;
 int main(int argc, char** argv) {
   if (argc < 4) {
     std::cerr << "usage: ite_archive TASK EVALUATIONS EVERY [--save-at=N1,N2,... --save-dir=DIR] "
-                 "[key=value ...]\n";
+                 "[--cache-file] [key=value ...]\n";
     return 2;
   }
   use_single_threaded_blas();
@@ -54,12 +58,15 @@ int main(int argc, char** argv) {
   std::vector<std::string> overrides = {std::string("task=") + argv[1], "algorithm=ite",
                                         "ite.evaluations=" + std::to_string(evaluations)};
   std::vector<long> save_at;
+  bool print_cache_file = false;
   std::filesystem::path save_dir = ".";
   for (int i = 4; i < argc; ++i) {
     const std::string a = argv[i];
     if (a.rfind("--save-at=", 0) == 0) {
       std::stringstream list(a.substr(10));
       for (std::string item; std::getline(list, item, ',');) save_at.push_back(std::atol(item.c_str()));
+    } else if (a == "--cache-file") {
+      print_cache_file = true;
     } else if (a.rfind("--save-dir=", 0) == 0) {
       save_dir = a.substr(11);
     } else {
@@ -69,6 +76,10 @@ int main(int argc, char** argv) {
   if (!save_at.empty()) std::filesystem::create_directories(save_dir);
   const auto e =
       experiment::make_experiment(registry, experiment::load_settings(registry, "", overrides));
+  if (print_cache_file) {
+    std::cout << experiment::ite_archive_cache_file(e.settings, e.setup).string() << "\n";
+    return 0;
+  }
   ThreadLimit limit(e.threads);
   const algo::IteOptions o = experiment::ite_options(e.settings, e.setup);
   const algo::Problem problem = e.setup.problem();

@@ -348,3 +348,29 @@ TEST(MapElites, AStoppedRunContinuedFromItsCursorAndSavedArchiveEqualsAnUninterr
 }
 
 }  // namespace
+
+// MAP-Elites is an anytime algorithm: the archive of a run with budget N is the archive of a run
+// with a larger budget as it stood after N evaluations (bench/ite_archive's --save-at relies on
+// it to give the archives of several budgets from one run).
+TEST(MapElites, ASmallerBudgetsArchiveIsALongerRunsArchiveAtThatBudget) {
+  MapElitesOptions o;
+  o.initial_population = 200;
+  o.batch_size = 200;
+  o.seed = 11;
+  o.max_evaluations = 2000;
+  Archive small(2, 10, 6);
+  run_map_elites(NoisyArm, VectorXd::Zero(6), VectorXd::Ones(6), o, small);
+  o.max_evaluations = 6000;
+  Archive longer(2, 10, 6), at_budget(2, 10, 6);
+  long seen = 0;
+  run_map_elites(NoisyArm, VectorXd::Zero(6), VectorXd::Ones(6), o, longer,
+                 [&](const MapElitesProgress& p, const Archive& a) {
+                   if (p.cursor.evaluations == 2000) at_budget = a;
+                   seen = p.cursor.evaluations;
+                   return true;
+                 });
+  EXPECT_EQ(seen, 6000);
+  EXPECT_GT(small.size(), 20u);
+  EXPECT_TRUE(at_budget == small);
+  EXPECT_FALSE(longer == small);  // the longer run went on
+}

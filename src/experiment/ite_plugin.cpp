@@ -347,6 +347,12 @@ class ItePlugin final : public AlgorithmPlugin {
 
 }  // namespace
 
+fs::path ite_archive_cache_file(const Settings& settings, const TaskSetup& setup) {
+  if (ite_key_table().read(settings).archive_cache.empty())
+    throw ConfigError("config key 'ite.archive_cache' is empty: no archive cache to name a file in");
+  return cache_file(settings, setup);
+}
+
 const ite::BehaviourDescriptor* task_behaviour(const TaskSetup& setup) {
   return setup.algorithm_data.find<ite::BehaviourDescriptor>("ite");
 }

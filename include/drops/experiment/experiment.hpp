@@ -3,6 +3,7 @@
 /// built by its plugin, plus what every run records (seed, threads, names).
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -84,6 +85,12 @@ algo::BlackDropsOptions black_drops_options(const Registry& registry, const Sett
 /// IT&E's behaviour descriptor of a task: its "ite" entry in TaskSetup::algorithm_data, or null
 /// when the task offers none. Throws drops::Error when that entry has another type.
 const ite::BehaviourDescriptor* task_behaviour(const TaskSetup& setup);
+/// The file in which the archive cache (ite.archive_cache) keeps the archive of these settings:
+/// DIR/TASK-PRIOR-seedSEED-HASH.csv, HASH over every setting that can change the archive (the
+/// real system's keys and the adaptation's do not). A complete archive file put there is what a
+/// run of these settings adapts with. Throws ConfigError when ite.archive_cache is empty.
+/// Thread-safe.
+std::filesystem::path ite_archive_cache_file(const Settings& settings, const TaskSetup& setup);
 /// The options of IT&E from settings (ite.*, policy.bound, episodes, seed) and the task's
 /// behaviour descriptor (task_behaviour); reads the archive file of ite.archive. Throws
 /// ConfigError naming the task when it has no behaviour descriptor, and naming the key for an
