@@ -15,8 +15,13 @@ writes to docs/results/ (or DIR):
   hexapod-intact-20-seeds-speed.png results/summaries/hexapod.csv: gp_mi on the intact robot, the
                                     hexapod's defaults, seeds 1-20, 1-10 and 11-20 (the runs of
                                     configs/campaign-hexapod-intact.yaml)
+  hexapod-ite-archive-size.png      results/summaries/hexapod-ite-archive-size.csv: IT&E's walking
+                                    speed at episode 8 against its archive's size, seeds 101-104,
+                                    intact and without the rear-right leg (the runs of
+                                    configs/campaign-hexapod-ite-archive-size.yaml), beside
+                                    gp_mi's median at episode 8 (hexapod.csv)
 
-Each figure is the form of `drops report`: per variant, the median over the runs (line) and the
+The first three figures are the form of `drops report`: per variant, the median over the runs (line) and the
 25-75 % band (shaded) against the interaction time, the quartiles interpolated linearly as drops
 does. Needs matplotlib (Debian's python3-matplotlib; scripts/install-deps).
 """
@@ -187,6 +192,49 @@ def hexapod_20_seeds(output):
            os.path.join(output, "hexapod-intact-20-seeds-speed.png"), 3)
 
 
+def hexapod_ite_archive_size(output):
+    rows = read("hexapod-ite-archive-size.csv")
+    gp_mi = [r for r in read("hexapod.csv") if r["variant"] == "gp_mi" and r["episode"] == "8"]
+    paper = {"leg5": 0.15}  # the paper's IT&E at episode 8 without the rear leg (issue 45)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for i, (damage, title) in enumerate(HEXAPOD_PANELS):
+        ax = axes[i]
+        sel = [r for r in rows if r["damage"] == damage and r["episode"] == "8"]
+        sizes = sorted({int(r["archive_evaluations"]) for r in sel})
+        seeds = sorted({int(r["seed"]) for r in sel})
+        for k, seed in enumerate(seeds):
+            pts = sorted((int(r["archive_evaluations"]), float(r["speed_m_s"]))
+                         for r in sel if int(r["seed"]) == seed)
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o:", color=COLOR["ite"],
+                    alpha=0.35, markersize=5, linewidth=1,
+                    label="IT&E, one seed (101–104)" if k == 0 else None)
+        medians = [quantile([float(r["speed_m_s"]) for r in sel
+                             if int(r["archive_evaluations"]) == n], 0.5) for n in sizes]
+        ax.plot(sizes, medians, "-o", color=COLOR["ite"], linewidth=2.5, markersize=7,
+                label="IT&E, median over the seeds")
+        for n in sizes:
+            cov = quantile([float(r["archive_coverage"]) for r in sel
+                            if int(r["archive_evaluations"]) == n], 0.5)
+            ax.annotate(f"{100 * cov:.0f} %", (n, 1), xycoords=("data", "axes fraction"),
+                        xytext=(0, -12), textcoords="offset points", ha="center", fontsize=8,
+                        color="dimgray")
+        bd = [float(r["speed_m_s"]) for r in gp_mi if r["damage"] == damage]
+        ax.axhline(quantile(bd, 0.5), color=COLOR["gp_mi"], linestyle="--", linewidth=1.5,
+                   label="Black-DROPS with GP-MI, median at episode 8 (seeds 1–20 intact, 1–5 "
+                         "leg5)")
+        if damage in paper:
+            ax.axhline(paper[damage], color="black", linestyle=":", linewidth=1.2,
+                       label="the paper's IT&E at episode 8")
+        ax.set_xscale("log")
+        ax.set_title(title, loc="left")
+        ax.set_xlabel("archive: MAP-Elites episodes on the prior (log scale; grey: cells filled)")
+        if i == 0:
+            ax.set_ylabel("walking speed at episode 8 (m/s)")
+        ax.set_ylim(-0.12, 0.40)
+    finish(fig, axes, "Hexapod, IT&E: walking speed at episode 8 against the archive's size",
+           os.path.join(output, "hexapod-ite-archive-size.png"), 2)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -196,6 +244,7 @@ def main():
     pendubot_returns(args.output)
     hexapod_speed(args.output)
     hexapod_20_seeds(args.output)
+    hexapod_ite_archive_size(args.output)
 
 
 if __name__ == "__main__":
