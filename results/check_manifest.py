@@ -42,6 +42,9 @@ SUMMARY_COLUMNS = {
     "summaries/pendubot.csv": COMMON + ["phi_m1", "phi_m2", "phi_l1", "phi_l2", "phi_b1",
                                         "phi_b2"],
     "summaries/hexapod.csv": COMMON + ["speed_m_s", "predicted_speed_m_s", "phi_prior"],
+    "summaries/hexapod-ite-archive-size.csv": COMMON + [
+        "speed_m_s", "predicted_speed_m_s", "phi_prior", "archive_evaluations", "archive_cells",
+        "archive_coverage"],
     "summaries/hexapod-ceiling.csv": [
         "campaign", "search", "task", "algorithm", "damage", "seed", "start", "sigma0",
         "episodes", "status", "best_episode", "best_return", "best_speed_m_s", "max_speed_m_s",
@@ -51,7 +54,8 @@ SUMMARY_COLUMNS = {
 NUMBERS = {"seed", "episode", "interaction_time_s", "real_return", "predicted_return", "solved",
            "phi_m1", "phi_m2", "phi_l1", "phi_l2", "phi_b1", "phi_b2", "speed_m_s",
            "predicted_speed_m_s", "sigma0", "episodes", "best_episode", "best_return",
-           "best_speed_m_s", "max_speed_m_s"}
+           "best_speed_m_s", "max_speed_m_s", "archive_evaluations", "archive_cells",
+           "archive_coverage"}
 REQUIRED = {"campaign", "run", "search", "task", "algorithm", "variant", "seed", "episode",
             "interaction_time_s", "real_return", "solved", "best_return", "best_speed_m_s",
             "best_theta"}

@@ -1,0 +1,68 @@
+#!/usr/bin/env python3
+"""Make the compact summary of a new campaign directory (results/README.md, "New campaigns").
+
+  summarize_campaign.py CAMPAIGN_DIR OUTPUT.csv
+
+One row per run and episode, with the columns of the task's summary (summaries/pendubot.csv or
+summaries/hexapod.csv; the campaign column is the campaign directory's name) and, for IT&E runs,
+the archive each run adapted with: archive_evaluations (config.yaml's ite.evaluations, the prior
+episodes of the MAP-Elites run that built it, also when the run read it from the archive cache),
+archive_cells and archive_coverage (summary.json "archive"). Every run must be complete.
+Standard library only.
+"""
+
+import csv
+import json
+import os
+import sys
+
+import summarize_archives as sa
+
+ARCHIVE_COLUMNS = ["archive_evaluations", "archive_cells", "archive_coverage"]
+
+
+def ite_evaluations(run_dir):
+    """ite.evaluations of a run's config.yaml."""
+    inside = False
+    with open(os.path.join(run_dir, "config.yaml")) as f:
+        for line in f:
+            if line.startswith("ite:"):
+                inside = True
+            elif inside and line.strip().startswith("evaluations:"):
+                return int(line.split(":", 1)[1])
+            elif inside and not line.startswith("  "):
+                inside = False
+    raise SystemExit(f"{run_dir}: no ite.evaluations")
+
+
+def main():
+    if len(sys.argv) != 3:
+        print(__doc__, file=sys.stderr)
+        sys.exit(2)
+    campaign_dir, output = sys.argv[1], sys.argv[2]
+    campaign_dir = os.path.normpath(campaign_dir)
+    parent, campaign = os.path.split(campaign_dir)
+    first = sa.runs_of(campaign_dir)[0][1]
+    with open(os.path.join(first, "summary.json")) as f:
+        task = json.load(f)["task"]
+    rows = sa.episode_rows(parent or ".", campaign, task)
+    columns = sa.PENDUBOT_COLUMNS if task == "pendubot" else sa.HEXAPOD_COLUMNS
+    archives = {}
+    for name, run_dir in sa.runs_of(campaign_dir):
+        with open(os.path.join(run_dir, "summary.json")) as f:
+            archive = json.load(f).get("archive")
+        if archive:
+            archives[name] = dict(archive, evaluations=ite_evaluations(run_dir))
+    if archives:
+        if len(archives) != len(sa.runs_of(campaign_dir)):
+            raise SystemExit(f"{campaign_dir}: some runs have an archive and some do not")
+        columns = columns + ARCHIVE_COLUMNS
+        for r in rows:
+            a = archives[r["run"]]
+            r.update(archive_evaluations=a["evaluations"], archive_cells=a["cells"],
+                     archive_coverage=repr(a["coverage"]))
+    sa.write(output, columns, rows)
+
+
+if __name__ == "__main__":
+    main()
