@@ -255,6 +255,8 @@ TEST(IteAlgorithm, AnArchiveGenerationInterruptedAndResumedThroughTheRunDirector
   EXPECT_EQ(again.summary.details.numbers.count("archive_evaluations"), 0u);
   EXPECT_EQ(again.records[0].evaluations, 0);
   EXPECT_TRUE(*again.archive.archive == *whole.archive.archive);
+  // The given archive keeps its file's MAP-Elites cursor (what summary.json reports of it).
+  EXPECT_EQ(again.archive.cursor.evaluations, 1500);
 }
 
 // --resume of a run stopped in its archive's generation: a damaged archive.csv, or none beside a
@@ -308,6 +310,7 @@ TEST(IteAlgorithm, TheArchiveCacheIsSharedByRunsThatDifferOnlyInTheRealSystem) {
   const Outcome second = run(make({cache, "system.m2=0.6", "ite.kappa=0.2"}), 2);
   EXPECT_EQ(second.summary.details.numbers.count("archive_evaluations"), 0u);
   EXPECT_TRUE(*second.archive.archive == *first.archive.archive);
+  EXPECT_EQ(second.archive.cursor.evaluations, first.archive.cursor.evaluations);
   // Another seed or prior: another archive.
   run(make({cache, "seed=5"}), 2);
   run(make({cache, "prior.preset=tunable"}), 2);

@@ -308,8 +308,9 @@ ArchiveOutcome obtain_archive(const Problem& problem, const IteOptions& options,
     check_archive(*options.archive, problem, k, "the given archive");
     if (options.archive->empty()) throw InvalidArgument("the given archive is empty");
     out.archive = options.archive;
+    out.cursor = options.archive_cursor;
     out.source = "given";
-    hand_out(out.archive, true, {});
+    hand_out(out.archive, true, out.cursor);
     return out;
   }
 

@@ -333,6 +333,7 @@ class ItePlugin final : public AlgorithmPlugin {
       const ArchiveFile f = read_archive_file(file);
       if (f.info.complete) {
         o.archive = f.archive;
+        o.archive_cursor = f.info.cursor;
         return std::make_unique<algo::Ite>(o);
       }
     }
@@ -410,6 +411,7 @@ algo::IteOptions ite_options(const Settings& s, const TaskSetup& setup) {
                         "; leave ite.bins empty (the archive's grid is used)");
     if (f.archive->empty()) throw ConfigError(key + "the archive holds no elite");
     o.archive = f.archive;
+    o.archive_cursor = f.info.cursor;
   }
   std::string why;
   if (!o.IsValid(&why)) throw ConfigError("config: ite: " + why);

@@ -49,6 +49,9 @@ struct IteOptions {
   /// A given archive (e.g. read from a file): no MAP-Elites. Its grid replaces `bins`; its
   /// descriptor dimension must be the behaviour's and its param_dim the policy's. Null: build one.
   std::shared_ptr<const ite::Archive> archive;
+  /// Where the MAP-Elites run that built the given archive stood (its file's cursor; empty when
+  /// unknown): recorded with the archive (ArchiveState::cursor, summary.json), not used.
+  ite::MapElitesCursor archive_cursor;
   /// M-BOA's settings (length scale, signal and noise variance, kappa, stop ratio, cell points);
   /// max_trials is set to `episodes`. Its variances and kappa apply to the scaled performance.
   ite::MboaOptions mboa;
@@ -113,8 +116,8 @@ struct IteTrials {
 ///      elite (recorded through on_episode like any episode), until the stopping rule or
 ///      `episodes` trials; then after_stop.
 /// on_state receives the archive (ArchiveState, the state's side_state) during its generation,
-/// once it is complete (episodes_done = 0), and after each episode with the trials so far (RunState::extra), so that
-/// the run resumes exactly. Progress of the generation goes to on_status (phase "archive").
+/// once it is complete (episodes_done = 0), and after each episode with the trials so far
+/// (RunState::extra), so that the run resumes exactly. Progress of the generation goes to on_status (phase "archive").
 /// The same seed gives the same archive and the same trials whatever the thread count.
 class Ite final : public Algorithm {
  public:
