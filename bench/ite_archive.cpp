@@ -7,19 +7,20 @@
 //                          [key=value ...]
 //   build/bench/ite_archive pendubot 200000 10000 threads=2
 //   build/bench/ite_archive hexapod 40000 2000 threads=2
-//   build/bench/ite_archive hexapod 1600000 100000 --save-at=100000,400000,1600000 --save-dir=a seed=1
+//   build/bench/ite_archive hexapod 800000 50000 --save-at=12600,50200,200200 --save-dir=a seed=1
 //
 // Prints one CSV row per report: evaluations, seconds (wall clock since the start),
 // evaluations_per_s (over the last interval), filled, coverage, best_fitness; then a summary line
 // on stderr. docs/benchmarks.md ("IT&E archive generation") holds the measured tables.
 // --save-at writes the archive as it stands once it has at least N evaluations, as
-// DIR/archive-N.csv (the archive file of docs/ite.md, usable as `ite.archive`): MAP-Elites is an
-// anytime algorithm, so one run gives the archives of every smaller budget (the same archive as a
-// run with that budget, tested). --cache-file prints, instead, the file in which ite.archive_cache
+// DIR/archive-M.csv, M its evaluations (the first batch boundary at or after N; the archive file
+// of docs/ite.md, usable as `ite.archive`): MAP-Elites is an anytime algorithm, so one run gives
+// the archives of every smaller budget M (the same archive as a run with budget M, tested). --cache-file prints, instead, the file in which ite.archive_cache
 // keeps the archive of these settings (experiment::ite_archive_cache_file) and exits: the place
 // to put such an archive so that `drops run` and `drops campaign` adapt with it.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -64,7 +65,9 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     if (a.rfind("--save-at=", 0) == 0) {
       std::stringstream list(a.substr(10));
-      for (std::string item; std::getline(list, item, ',');) save_at.push_back(std::atol(item.c_str()));
+      for (std::string item; std::getline(list, item, ',');)
+        save_at.push_back(std::atol(item.c_str()));
+      std::sort(save_at.begin(), save_at.end());
     } else if (a == "--cache-file") {
       print_cache_file = true;
     } else if (a.rfind("--save-dir=", 0) == 0) {
@@ -98,7 +101,7 @@ int main(int argc, char** argv) {
       experiment::ArchiveFileInfo info = file_info;
       info.complete = true;
       info.cursor = p.cursor;
-      const auto file = save_dir / fmt::format("archive-{}.csv", save_at[next_save]);
+      const auto file = save_dir / fmt::format("archive-{}.csv", p.cursor.evaluations);
       experiment::write_archive_file(file, a, info);
       std::cerr << fmt::format("wrote {} ({} evaluations)\n", file.string(), p.cursor.evaluations);
       ++next_save;
