@@ -42,19 +42,23 @@ def main():
     campaign_dir, output = sys.argv[1], sys.argv[2]
     campaign_dir = os.path.normpath(campaign_dir)
     parent, campaign = os.path.split(campaign_dir)
-    first = sa.runs_of(campaign_dir)[0][1]
-    with open(os.path.join(first, "summary.json")) as f:
+    if not os.path.isdir(os.path.join(campaign_dir, "runs")):
+        raise SystemExit(f"{campaign_dir}: not a campaign directory (no runs/)")
+    runs = sa.runs_of(campaign_dir)
+    if not runs:
+        raise SystemExit(f"{campaign_dir}: no run with an episodes.csv under runs/")
+    with open(os.path.join(runs[0][1], "summary.json")) as f:
         task = json.load(f)["task"]
     rows = sa.episode_rows(parent or ".", campaign, task)
     columns = sa.PENDUBOT_COLUMNS if task == "pendubot" else sa.HEXAPOD_COLUMNS
     archives = {}
-    for name, run_dir in sa.runs_of(campaign_dir):
+    for name, run_dir in runs:
         with open(os.path.join(run_dir, "summary.json")) as f:
             archive = json.load(f).get("archive")
         if archive:
             archives[name] = dict(archive, evaluations=ite_evaluations(run_dir))
     if archives:
-        if len(archives) != len(sa.runs_of(campaign_dir)):
+        if len(archives) != len(runs):
             raise SystemExit(f"{campaign_dir}: some runs have an archive and some do not")
         columns = columns + ARCHIVE_COLUMNS
         for r in rows:
