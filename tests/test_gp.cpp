@@ -262,6 +262,62 @@ TEST(Gp, RpropOptionsAndStopping) {
   EXPECT_GE(s.final_log_likelihood, s.initial_log_likelihood);
 }
 
+// A search stopped by max_iterations and continued with a state (RpropState) takes exactly the
+// steps of the uninterrupted search: the same kernels bit for bit, the same likelihood and
+// iteration count, also for a search that finishes by its tolerance within the continuation's
+// budget; a finished search stays finished.
+TEST(Gp, AContinuedRpropSearchEqualsTheUninterruptedOne) {
+  Rng rng(11);
+  const MatrixXd X = RandomMatrix(rng, 60, 3, -2.0, 2.0);
+  VectorXd y(60);
+  for (int i = 0; i < 60; ++i) y[i] = std::sin(2 * X(i, 0)) * X(i, 1) + 0.05 * rng.normal();
+  for (const double tolerance : {0.0, 1e-3}) {
+    drops::gp::RpropOptions all;
+    all.max_iterations = 40;
+    all.tolerance = tolerance;
+    Gp straight(3);
+    straight.compute(X, y);
+    const auto s = straight.optimize_h_params(all);
+
+    for (const int first : {1, 7, 20}) {
+      Gp a(3);
+      a.compute(X, y);
+      drops::gp::RpropState state;
+      drops::gp::RpropOptions part = all;
+      part.max_iterations = first;
+      const auto s1 = a.optimize_h_params(part, &state);
+      EXPECT_TRUE(state.started);
+      EXPECT_EQ(s1.iterations, std::min(first, s.iterations));
+      Gp b(3);  // a new GP on the same data, another start: the state decides where it goes on
+      b.compute(X, y);
+      const auto s2 = b.optimize_h_params(all, &state);
+      EXPECT_EQ(b.h_params(), straight.h_params()) << "tolerance " << tolerance << " first " << first;
+      EXPECT_EQ(s2.final_log_likelihood, s.final_log_likelihood);
+      EXPECT_EQ(s2.iterations, s.iterations);
+      EXPECT_EQ(s2.initial_log_likelihood, s.initial_log_likelihood);
+    }
+  }
+  // A finished search (tolerance) does not move when continued with a larger budget.
+  drops::gp::RpropOptions early;
+  early.max_iterations = 1000;
+  early.tolerance = 1e-3;
+  early.patience = 5;
+  Gp gp(3);
+  gp.compute(X, y);
+  drops::gp::RpropState state;
+  const auto s = gp.optimize_h_params(early, &state);
+  ASSERT_LT(s.iterations, 1000);
+  EXPECT_TRUE(state.finished);
+  const VectorXd h = gp.h_params();
+  early.max_iterations = 2000;
+  EXPECT_EQ(gp.optimize_h_params(early, &state).iterations, s.iterations);
+  EXPECT_EQ(gp.h_params(), h);
+  // A state of another dimension is refused.
+  Gp other(2);
+  other.compute(X.leftCols(2), y);
+  EXPECT_THROW(other.optimize_h_params(early, &state), drops::InvalidArgument);
+}
+
 // PILCO's soft walls (RpropOptions::penalty). Noise-free targets on 3 distinct inputs drive the
 // plain fit to sigma_n at its floor (signal-to-noise ratio ~1e5); with the walls the ratio stays
 // near max_snr (a soft wall: within 1.5x against 60 noise-free points) and the length scale near

@@ -498,3 +498,86 @@ TEST(GpMi, InitialCandidateStartScoresEveryCandidateAsAFreshFit) {
   EXPECT_FALSE(is_an_oracle_score(first))
       << first << ": best_so_far starts the first candidate from the entry kernels";
 }
+
+// The candidate screen (GpMiOptions::screen_iterations): with candidate_start = initial, the
+// candidates whose short fit scores more than the margin below the best short fit are left out,
+// exactly those a naive loop of short fresh fits (the oracle) puts below it, and the search's
+// choice, score and kernels are those of the unscreened search, bit for bit, with fewer Rprop
+// iterations.
+TEST(GpMi, TheCandidateScreenLeavesOutTheCandidatesBelowItsMarginAndKeepsTheChoice) {
+  const auto data = actual_data(2);
+  pendubot::SwingUpTask task;
+  const int E = task.state_dim();
+  const model::Dataset d = model::make_dataset(data, &task, E, task.action_dim());
+  model::PriorParameters p;
+  p.names = pendubot::parameter_names();
+  p.values = pendubot::preset("tunable").to_phi();
+  p.tunable = {1};
+  p.lower = VectorXd::Constant(1, 0.3);
+  p.upper = VectorXd::Constant(1, 0.8);
+  p.choices = {{0.35, 0.5, 0.65, 0.75}};
+  pendubot::PendubotPrior prior;
+  model::GpMiOptions o;
+  o.score = model::GpMiScore::kSumOfLogLikelihoods;
+  o.candidate_start = model::GpMiCandidateStart::kInitial;
+  o.inner_rprop_iterations = 20;
+  gp::RpropOptions rprop;
+  rprop.max_iterations = 20;
+  constexpr int kScreen = 4;
+
+  // The oracle: each choice's score after kScreen Rprop iterations of E fresh GPs.
+  std::vector<double> short_scores;
+  for (double m2 : p.choices[0]) {
+    VectorXd phi = p.values;
+    phi[1] = m2;
+    long bad = 0;
+    const MatrixXd t = d.dx - model::prior_outputs(prior, d.x, d.u, phi, &bad);
+    double sum = 0;
+    for (int i = 0; i < E; ++i) {
+      gp::Gp g(static_cast<int>(d.gp_in.cols()));
+      g.compute(d.gp_in, t.col(i));
+      gp::RpropOptions r = rprop;
+      r.max_iterations = kScreen;
+      g.optimize_h_params(r);
+      sum += g.log_marginal_likelihood();
+    }
+    short_scores.push_back(sum);
+  }
+  std::vector<double> sorted = short_scores;
+  std::sort(sorted.rbegin(), sorted.rend());
+  ASSERT_GT(sorted[0] - sorted[1], 1e-6) << "the test needs a single best short fit";
+
+  auto fresh = [&] {
+    return std::vector<gp::Gp>(static_cast<std::size_t>(E), gp::Gp(static_cast<int>(d.gp_in.cols())));
+  };
+  auto gps_full = fresh();
+  const auto full = model::identify_phi(prior, p, d, o, rprop, gps_full, {});
+  EXPECT_EQ(full.screened_out, 0);
+
+  for (double margin : {0.5 * (sorted[0] - sorted[1]), 0.5 * (sorted[1] - sorted[2]) + sorted[0] - sorted[1]}) {
+    model::GpMiOptions so = o;
+    so.screen_iterations = kScreen;
+    so.screen_margin = margin;
+    const long below = std::count_if(short_scores.begin(), short_scores.end(),
+                                     [&](double v) { return v < sorted[0] - margin; });
+    auto gps = fresh();
+    const auto screened = model::identify_phi(prior, p, d, so, rprop, gps, {});
+    EXPECT_EQ(screened.screened_out, below) << "margin " << margin;
+    EXPECT_EQ(screened.evaluations, 4);
+    // The winner of the full fits passed this screen in this data (checked below), so the result
+    // is the unscreened one.
+    const auto winner = std::find(p.choices[0].begin(), p.choices[0].end(), full.phi[1]) -
+                        p.choices[0].begin();
+    ASSERT_GE(short_scores[static_cast<std::size_t>(winner)], sorted[0] - margin);
+    EXPECT_EQ(screened.phi[1], full.phi[1]);
+    EXPECT_EQ(screened.score, full.score);
+    for (int i = 0; i < E; ++i)
+      EXPECT_EQ(gps[static_cast<std::size_t>(i)].h_params(), gps_full[static_cast<std::size_t>(i)].h_params());
+    EXPECT_LT(screened.rprop_iterations, full.rprop_iterations);
+  }
+
+  model::GpMiOptions bad = o;
+  bad.screen_iterations = o.inner_rprop_iterations;  // not shorter than the full fit
+  auto gps = fresh();
+  EXPECT_THROW(model::identify_phi(prior, p, d, bad, rprop, gps, {}), InvalidArgument);
+}

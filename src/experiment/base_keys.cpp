@@ -146,6 +146,17 @@ KeyTable<BaseOptions> make_base_key_table() {
         [=](auto& o) -> auto& { return model(o).gp_mi.inner_rprop_iterations; })
       .range(1, 100000)
       .help("Rprop iterations of kernel refits inside the phi search");
+  t.add("model.gp_mi.screen_iterations",
+        [=](auto& o) -> auto& { return model(o).gp_mi.screen_iterations; })
+      .range(0, 99999)
+      .help("discrete phi (nested search): Rprop iterations of a first, short kernel fit of "
+            "every candidate; only those within model.gp_mi.screen_margin of the best get the "
+            "full fit (0 = no screen; less than model.gp_mi.inner_rprop_iterations)");
+  t.add("model.gp_mi.screen_margin",
+        [=](auto& o) -> auto& { return model(o).gp_mi.screen_margin; })
+      .range(0, 1e9)
+      .help("the screen's margin in units of GP-MI's score (nats): a candidate whose short fit "
+            "scores more than this below the best one's is left out");
   t.add("model.gp_mi.max_points", [=](auto& o) -> auto& { return model(o).gp_mi.max_points; })
       .range(0, 1000000)
       .help("transitions used inside the phi search, evenly spaced (0 = all); the final fit uses "

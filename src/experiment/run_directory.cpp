@@ -443,6 +443,7 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
                       {"nonfinite_model_steps", rec.nonfinite_model_steps},
                       {"nonfinite_prior_outputs", rec.model.nonfinite_prior_outputs},
                       {"phi_evaluations", rec.model.phi_evaluations},
+                      {"phi_screened_out", rec.model.phi_screened_out},
                       {"rprop_iterations", rec.model.rprop_iterations},
                       {"trajectories", rec.keep_trajectories}};
   // The real system returned a non-finite state: the episode ended at that step (never solved;
@@ -1051,7 +1052,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
           "episode", "interaction_time_s", "real_return", "predicted_return", "solved",
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
           "nonfinite_model_steps", "nonfinite_prior_outputs", "phi_evaluations",
-          "rprop_iterations", "trajectories", "policy_search", "policy_search_runs",
+          "phi_screened_out", "rprop_iterations", "trajectories", "policy_search", "policy_search_runs",
           "policy_selection", "calibration", "phi_posterior"};
       for (const auto& e : s.value("episodes", nlohmann::json::array())) {
         EpisodeResult ep;

@@ -126,7 +126,7 @@ bool RpropOptions::IsValid(std::string* why) const {
   return true;
 }
 
-RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
+RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* state) {
   std::string why;
   if (!options.IsValid(&why)) {
     throw InvalidArgument("Gp::optimize_h_params: invalid RpropOptions: " + why);
@@ -140,6 +140,10 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
                           "this GP has '" + kernel_->name() + "'");
   }
   const Eigen::Index P = h_.size();
+  if (state != nullptr && state->started && state->h.size() != P) {
+    throw InvalidArgument("Gp::optimize_h_params: state: expected " + std::to_string(P) +
+                          " hyper-parameters, got " + std::to_string(state->h.size()));
+  }
   Eigen::VectorXd lo = Eigen::VectorXd::Constant(P, kLogMin);
   Eigen::VectorXd hi = Eigen::VectorXd::Constant(P, kLogMax);
   lo[P - 1] = kLogNoiseStdMin;
@@ -154,43 +158,73 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
     grad -= wall_grad;
     return value;
   };
-  // Warm start: the current h is already factorised.
-  Eigen::VectorXd h = h_params();
-  Eigen::VectorXd g;
-  double f = objective(h, g);
-  summary.iterations = 1;
-  summary.initial_log_likelihood = log_marginal_likelihood();
-
-  Eigen::VectorXd best_h = h, best_g = g;
-  double best_f = std::isfinite(f) && g.allFinite() ? f : -std::numeric_limits<double>::infinity();
-  if (!(std::isfinite(f) && g.allFinite())) g.setZero();
-  Eigen::VectorXd delta = Eigen::VectorXd::Constant(P, options.delta0);
-  Eigen::VectorXd g_prev = Eigen::VectorXd::Zero(P);
-  std::vector<double> best_history{best_f};
+  Eigen::VectorXd h, g, best_h, best_g, delta, g_prev;
+  double best_f = 0.0;
+  std::vector<double> best_history;
+  bool finished = false;
+  bool pending = false;  // h was stepped to and not evaluated yet (a continued search)
+  if (state != nullptr && state->started) {
+    summary.iterations = state->iterations;
+    summary.initial_log_likelihood = state->initial_log_likelihood;
+    summary.cholesky_failures = state->cholesky_failures;
+    h = state->h;
+    g = state->g;
+    g_prev = state->g_prev;
+    delta = state->delta;
+    best_h = state->best_h;
+    best_g = state->best_g;
+    best_f = state->best_f;
+    best_history = state->best_history;
+    finished = state->finished;
+    pending = true;
+  } else {
+    // Warm start: the current h is already factorised.
+    h = h_params();
+    double f = objective(h, g);
+    summary.iterations = 1;
+    summary.initial_log_likelihood = log_marginal_likelihood();
+    best_h = h;
+    best_g = g;
+    best_f = std::isfinite(f) && g.allFinite() ? f : -std::numeric_limits<double>::infinity();
+    if (!(std::isfinite(f) && g.allFinite())) g.setZero();
+    delta = Eigen::VectorXd::Constant(P, options.delta0);
+    g_prev = Eigen::VectorXd::Zero(P);
+    best_history.push_back(best_f);
+  }
   const auto patience = static_cast<std::size_t>(options.patience);
 
-  while (true) {
-    // iRprop- step (ascent on f).
-    for (Eigen::Index i = 0; i < P; ++i) {
-      const double s = g_prev[i] * g[i];
-      if (s > 0.0) {
-        delta[i] = std::min(delta[i] * options.eta_plus, options.delta_max);
-      } else if (s < 0.0) {
-        delta[i] = std::max(delta[i] * options.eta_minus, options.delta_min);
-        g[i] = 0.0;
+  while (!finished) {
+    if (!pending) {
+      // iRprop- step (ascent on f).
+      for (Eigen::Index i = 0; i < P; ++i) {
+        const double s = g_prev[i] * g[i];
+        if (s > 0.0) {
+          delta[i] = std::min(delta[i] * options.eta_plus, options.delta_max);
+        } else if (s < 0.0) {
+          delta[i] = std::max(delta[i] * options.eta_minus, options.delta_min);
+          g[i] = 0.0;
+        }
+        const double step = g[i] > 0.0 ? delta[i] : (g[i] < 0.0 ? -delta[i] : 0.0);
+        const double target = h[i] + step;
+        h[i] = std::clamp(target, lo[i], hi[i]);
+        // A parameter pinned at the box keeps a moderate step, so that it can come back quickly
+        // and does not jump across the box when its gradient changes sign.
+        if (h[i] != target) delta[i] = std::min(delta[i], options.delta0);
+        g_prev[i] = g[i];
       }
-      const double step = g[i] > 0.0 ? delta[i] : (g[i] < 0.0 ? -delta[i] : 0.0);
-      const double target = h[i] + step;
-      h[i] = std::clamp(target, lo[i], hi[i]);
-      // A parameter pinned at the box keeps a moderate step, so that it can come back quickly and
-      // does not jump across the box when its gradient changes sign.
-      if (h[i] != target) delta[i] = std::min(delta[i], options.delta0);
-      g_prev[i] = g[i];
+      if (delta.maxCoeff() <= options.delta_min) {  // every step at the floor: converged
+        finished = true;
+        break;
+      }
     }
-    if (delta.maxCoeff() <= options.delta_min) break;  // every step at the floor: converged
-    if (summary.iterations >= options.max_iterations) break;
+    if (summary.iterations >= options.max_iterations) {
+      pending = true;  // the step is taken; a continued search evaluates it first
+      break;
+    }
+    pending = false;
 
     ++summary.iterations;
+    double f = 0.0;
     bool ok = true;
     try {
       apply_h(h);
@@ -214,10 +248,26 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options) {
     best_history.push_back(best_f);
     if (options.tolerance > 0.0 && best_history.size() > patience &&
         best_f - best_history[best_history.size() - 1 - patience] < options.tolerance) {
+      finished = true;
       break;
     }
   }
 
+  if (state != nullptr) {
+    state->started = true;
+    state->finished = finished;
+    state->iterations = summary.iterations;
+    state->cholesky_failures = summary.cholesky_failures;
+    state->initial_log_likelihood = summary.initial_log_likelihood;
+    state->h = h;
+    state->g = g;
+    state->g_prev = g_prev;
+    state->delta = delta;
+    state->best_h = best_h;
+    state->best_g = best_g;
+    state->best_f = best_f;
+    state->best_history = best_history;
+  }
   apply_h(best_h);  // keep the best iterate (it factorised before, so this succeeds)
   summary.final_log_likelihood = log_marginal_likelihood();
   summary.final_penalty = walls(best_h, nullptr);

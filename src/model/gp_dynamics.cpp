@@ -86,6 +86,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
     s.rounds = mi.rounds;
     s.rprop_iterations = mi.rprop_iterations;
     s.nonfinite_prior_outputs = mi.nonfinite_prior_outputs;
+    s.phi_screened_out = mi.screened_out;
   }
   // Final fit: all data, phi fixed, full Rprop budget (warm-started).
   if (progress) progress("kernels", s.phi_evaluations, s.score);

@@ -78,25 +78,63 @@ GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& para
   double best_score = -kInf;
   int evals = 0;
   std::atomic<long> rprop_its{0};
-  auto S = [&](const VectorXd& phi) {
-    const int k = evals++;
+  // The candidate's score after its kernels' fit with the given Rprop options; h: the fitted
+  // kernels (empty for an output whose fit failed). states (E, or empty): Rprop searches to
+  // continue (the screen's), updated.
+  auto fit = [&](const VectorXd& phi, const gp::RpropOptions& rprop, std::vector<VectorXd>& h,
+                 std::vector<gp::RpropState>& states) {
     MatrixXd t;
+    h.assign(E, VectorXd());
     if (!residuals(prior, d, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
     VectorXd ll(static_cast<Eigen::Index>(E));
-    std::vector<VectorXd> h(E);
     parallel_for(E, [&](std::size_t i) {  // inner loop: Rprop per output GP
       gp::Gp g(static_cast<int>(d.gp_in.cols()));
       g.set_h_params(from_initial ? initial_h : best_h[i]);
+      gp::RpropState* state = states.empty() ? nullptr : &states[i];
+      const int before = state != nullptr ? state->iterations : 0;
       try {
         g.compute(d.gp_in, t.col(static_cast<Eigen::Index>(i)));
-        rprop_its += g.optimize_h_params(inner).iterations;
+        rprop_its += g.optimize_h_params(rprop, state).iterations - before;
         ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
         h[i] = g.h_params();
       } catch (const NumericalError&) {
         ll[static_cast<Eigen::Index>(i)] = -kInf;
       }
     });
-    const double sc = gp_mi_score(ll, options.score);
+    return gp_mi_score(ll, options.score);
+  };
+  // The screen (GpMiOptions::screen_iterations): a short fit of every listed candidate, in the
+  // order of the search below, and the screened scores' best.
+  const bool all_discrete = std::all_of(parameters.choices.begin(), parameters.choices.end(),
+                                        [](const auto& c) { return !c.empty(); });
+  // Each candidate's searches stop after the screen's iterations and are continued for those that
+  // pass it, so that their fits are the unscreened ones.
+  std::vector<double> screened;
+  std::vector<std::vector<gp::RpropState>> screen_states;
+  double best_screened = -kInf;
+  if (options.screen_iterations > 0 && all_discrete) {
+    gp::RpropOptions short_fit = inner;
+    short_fit.max_iterations = options.screen_iterations;
+    std::vector<VectorXd> h;
+    search_phi(prior, parameters, options, [&](const VectorXd& phi) {
+      screen_states.emplace_back(E);
+      screened.push_back(fit(phi, short_fit, h, screen_states.back()));
+      best_screened = std::max(best_screened, screened.back());
+      return screened.back();
+    });
+  }
+  std::vector<gp::RpropState> no_states;
+  auto S = [&](const VectorXd& phi) {
+    const int k = evals++;
+    const bool was_screened = static_cast<std::size_t>(k) < screened.size();
+    if (was_screened &&
+        !(screened[static_cast<std::size_t>(k)] >= best_screened - options.screen_margin)) {
+      ++s.screened_out;
+      return -kInf;
+    }
+    std::vector<VectorXd> h;
+    const double sc = fit(phi, inner, h,
+                          was_screened ? screen_states[static_cast<std::size_t>(k)] : no_states);
     if (sc > best_score) {
       best_score = sc;
       for (std::size_t i = 0; i < E; ++i)
@@ -183,6 +221,11 @@ bool GpMiOptions::IsValid(std::string* why) const {
   if (rounds < 1) return fail("gp_mi.rounds must be >= 1");
   if (inner_rprop_iterations < 1) return fail("gp_mi.inner_rprop_iterations must be >= 1");
   if (max_points < 0) return fail("gp_mi.max_points must be >= 0");
+  if (screen_iterations < 0 || (screen_iterations > 0 && screen_iterations >= inner_rprop_iterations))
+    return fail("gp_mi.screen_iterations must be 0 (no screen) or in [1, inner_rprop_iterations = " +
+                std::to_string(inner_rprop_iterations) + "), got " + std::to_string(screen_iterations));
+  if (!(screen_margin >= 0.0) || !std::isfinite(screen_margin))
+    return fail("gp_mi.screen_margin must be a finite value >= 0");
   return true;
 }
 

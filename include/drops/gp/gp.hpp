@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "drops/gp/kernel.hpp"
 
@@ -47,6 +48,21 @@ struct RpropSummary {
   double final_log_likelihood = 0;    ///< at the best iterate (the one kept)
   double final_penalty = 0;           ///< the soft walls' value there (0 without penalty)
   int cholesky_failures = 0;          ///< iterates rejected because K was not positive definite
+};
+
+/// Where an iRprop- search stopped, so that a later Gp::optimize_h_params call with a larger
+/// max_iterations continues it: the continued search takes exactly the steps the uninterrupted
+/// one would have taken (the same iterates, bit for bit). Opaque: filled by optimize_h_params.
+struct RpropState {
+  bool started = false;   ///< false: the next call starts a new search from the GP's h
+  bool finished = false;  ///< converged (every step at delta_min) or stopped by the tolerance rule
+  int iterations = 0;     ///< gradient evaluations so far (the start included)
+  int cholesky_failures = 0;
+  double initial_log_likelihood = 0;
+  Eigen::VectorXd h;      ///< the next iterate, stepped to but not evaluated yet
+  Eigen::VectorXd g, g_prev, delta, best_h, best_g;
+  double best_f = 0;
+  std::vector<double> best_history;
 };
 
 /// Scalar-output GP regression, zero mean on the targets it is given (the caller subtracts the prior
@@ -124,7 +140,13 @@ class Gp {
   /// counts as -inf: it is counted in cholesky_failures, all steps shrink by eta_minus and the search
   /// resumes from the best iterate. Requires data (N >= 1). Throws InvalidArgument on invalid options,
   /// N = 0, or options.penalty with a kernel other than SE-ARD (the walls are defined on its h). Not thread-safe (mutates the GP). Cost per iteration: O(N^3) (Cholesky + K^-1).
-  RpropSummary optimize_h_params(const RpropOptions& options = {});
+  ///
+  /// state (optional): a search stopped by max_iterations can be continued. With a state that
+  /// has started, the search resumes where that state says (the GP must hold the data and
+  /// targets it was started on; its current h is ignored) and runs until options.max_iterations
+  /// gradient evaluations in all; on return the state says where it stopped. RpropSummary's
+  /// iterations and initial likelihood then count from the search's start.
+  RpropSummary optimize_h_params(const RpropOptions& options = {}, RpropState* state = nullptr);
 
   /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise, clamped at >= 0)
   /// at x (dim D; InvalidArgument otherwise). Thread-safe after compute(); per-thread scratch, no heap

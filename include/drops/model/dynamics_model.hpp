@@ -59,6 +59,7 @@ struct ModelSummary {
   int rounds = 0;                ///< alternating GP-MI rounds performed
   long rprop_iterations = 0;     ///< Rprop iterations over all fits
   long nonfinite_prior_outputs = 0;  ///< simulator outputs that were NaN/inf (phi rejected there)
+  int phi_screened_out = 0;  ///< GP-MI candidates left out by the screen (GpMiOptions)
   /// gp_mi with continuous tunable parameters: how sure the model is of them (phi_posterior, at
   /// the final fit); empty otherwise.
   PhiPosterior phi_posterior;

@@ -76,6 +76,20 @@ struct GpMiOptions {
   /// Use at most this many transitions (evenly spaced) inside the phi search; 0 = all. The final
   /// kernel fit always uses all data. >= 0.
   int max_points = 0;
+  /// Candidate screen, nested search over a phi whose tuned entries are all discrete (the
+  /// candidates are listed, none continuous): first every candidate's kernels get this many Rprop
+  /// iterations, then only the candidates whose score is within screen_margin of the best one's
+  /// have their Rprop searches continued to inner_rprop_iterations (gp::RpropState: the same
+  /// steps as an uninterrupted search). With candidate_start kInitial every fit starts from a new
+  /// GP's kernels, so a candidate that passes gets the fit and score it would have without the
+  /// screen, and the choice, the kernels and the score are those of the unscreened search
+  /// whenever the winner passes. Cost: screen_iterations for every candidate, the rest of
+  /// inner_rprop_iterations for those that pass. 0 = no screen (every candidate fitted in full);
+  /// otherwise in [1, inner_rprop_iterations). Ignored when a tuned entry is continuous.
+  int screen_iterations = 0;
+  /// The screen's margin in units of the score (nats), >= 0: a candidate whose screened score is
+  /// more than this below the best screened score is not fitted further.
+  double screen_margin = 0.0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
 };
@@ -92,6 +106,7 @@ struct GpMiSummary {
   int rounds = 0;                  ///< alternating search: rounds performed (0 for nested)
   long rprop_iterations = 0;       ///< Rprop iterations of every kernel fit inside the search
   long nonfinite_prior_outputs = 0;  ///< simulator outputs that were NaN/inf (phi rejected there)
+  int screened_out = 0;  ///< candidates the screen left out (GpMiOptions::screen_iterations)
 };
 
 /// How sure GP-MI is of phi: the Laplace approximation of the posterior over the continuous
