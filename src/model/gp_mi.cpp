@@ -29,6 +29,7 @@ namespace drops::model {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// The residual targets dx - M(x, u; phi), or nothing when the simulator returned a non-finite
 /// output on some transition (counted in *nonfinite): such a phi scores -inf.
@@ -291,8 +292,99 @@ MatrixXd PhiPosterior::correlation() const {
   return c;
 }
 
+namespace {
+
+// The box of Rprop's kernel fits (Gp::optimize_h_params): the kernel's log hyper-parameters in
+// [-10, 10], log sigma_n in [log 1e-5, 10]. A hyper-parameter that the fit left on the box is held
+// fixed, not marginalised: the fit's gradient pushes it against the box, which keeps it there for
+// nearby phi, so it takes up none of a change of phi (and the likelihood's curvature there, e.g.
+// flat for a length scale of an input the residual ignores, is not that of a maximum). The others
+// get the flat prior over the box as a Gaussian of its variance, as phi gets over its interval: a
+// hyper-parameter the data leave flat then takes up at most what that weak prior allows, and the
+// eigenvalues are floored at it when the block is indefinite (a fit stopped short of its maximum).
+constexpr double kLogHMin = -10.0;
+constexpr double kLogHMax = 10.0;
+const double kLogNoiseMin = std::log(1e-5);
+// A log hyper-parameter within this of a bound is held by the box (Rprop clamps onto the bound).
+constexpr double kAtBox = 1e-6;
+// Central-difference step on the log hyper-parameters: the analytic gradient varies on a scale
+// of order 1 in log space, so the truncation error is ~1e-7 relative, and the step is large
+// enough against the gradient's round-off.
+constexpr double kLogHStep = 1e-3;
+
+/// What marginalising output GP `fitted`'s kernel hyper-parameters h takes off the negative
+/// Hessian of the log likelihood in the continuous phi (K x K, positive semi-definite):
+/// C B^-1 C^T, C = -d2 l / dphi dh (K x F) and B = -d2 l / dh2 + P_h (F x F) over the F
+/// components of h not held by Rprop's box, l = log p(t | X, h) of this output's residuals t.
+/// C from central differences of the analytic h-gradient between the residuals at phi* -+ one
+/// step of each phi (up[a], down[a], column `out`, steps `step`); B from central differences of
+/// that gradient along each free log hyper-parameter (kLogHStep), symmetrised, plus the flat prior
+/// over Rprop's box as a Gaussian of its variance (P_h = 12 / width^2 per component), its
+/// eigenvalues floored at the smallest of those precisions. NaN entries when a factorisation or
+/// a gradient fails.
+MatrixXd kernel_absorption(const gp::Gp& fitted, Eigen::Index out, const MatrixXd& at_phi,
+                           const std::vector<MatrixXd>& up, const std::vector<MatrixXd>& down,
+                           const std::vector<double>& step) {
+  const auto K = static_cast<Eigen::Index>(up.size());
+  const VectorXd h = fitted.h_params();
+  const Eigen::Index H = h.size();
+  std::vector<Eigen::Index> free;
+  VectorXd precision(H);
+  for (Eigen::Index j = 0; j < H; ++j) {
+    const double lo = j == H - 1 ? kLogNoiseMin : kLogHMin;
+    precision[j] = 12.0 / ((kLogHMax - lo) * (kLogHMax - lo));
+    if (h[j] > lo + kAtBox && h[j] < kLogHMax - kAtBox) free.push_back(j);
+  }
+  const auto F = static_cast<Eigen::Index>(free.size());
+  MatrixXd absorbed = MatrixXd::Zero(K, K);
+  if (F == 0) return absorbed;
+  try {
+    gp::Gp g = fitted;
+    MatrixXd C(K, F);
+    for (Eigen::Index a = 0; a < K; ++a) {
+      g.set_targets(up[static_cast<std::size_t>(a)].col(out));
+      const VectorXd gu = g.log_marginal_likelihood_gradient();
+      g.set_targets(down[static_cast<std::size_t>(a)].col(out));
+      const VectorXd gd = g.log_marginal_likelihood_gradient();
+      for (Eigen::Index f = 0; f < F; ++f)
+        C(a, f) = -(gu[free[static_cast<std::size_t>(f)]] - gd[free[static_cast<std::size_t>(f)]]) /
+                  (2 * step[static_cast<std::size_t>(a)]);
+    }
+    g.set_targets(at_phi.col(out));
+    MatrixXd B(F, F);
+    double min_precision = std::numeric_limits<double>::infinity();
+    for (Eigen::Index f = 0; f < F; ++f) {
+      const Eigen::Index j = free[static_cast<std::size_t>(f)];
+      VectorXd hs = h;
+      hs[j] = h[j] + kLogHStep;
+      g.set_h_params(hs);
+      const VectorXd gu = g.log_marginal_likelihood_gradient();
+      hs[j] = h[j] - kLogHStep;
+      g.set_h_params(hs);
+      const VectorXd gd = g.log_marginal_likelihood_gradient();
+      for (Eigen::Index e = 0; e < F; ++e)
+        B(e, f) = -(gu[free[static_cast<std::size_t>(e)]] - gd[free[static_cast<std::size_t>(e)]]) /
+                  (2 * kLogHStep);
+      min_precision = std::min(min_precision, precision[j]);
+    }
+    if (!C.allFinite() || !B.allFinite()) return MatrixXd::Constant(K, K, kNaN);
+    B = 0.5 * (B + B.transpose()).eval();
+    for (Eigen::Index f = 0; f < F; ++f) B(f, f) += precision[free[static_cast<std::size_t>(f)]];
+    const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(B);
+    const VectorXd lambda = eig.eigenvalues().cwiseMax(min_precision);
+    const MatrixXd CV = C * eig.eigenvectors();
+    absorbed = CV * lambda.cwiseInverse().asDiagonal() * CV.transpose();
+  } catch (const NumericalError&) {
+    absorbed.setConstant(kNaN);
+  }
+  return absorbed;
+}
+
+}  // namespace
+
 PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
-                           const Dataset& data, const std::vector<gp::Gp>& gps) {
+                           const Dataset& data, const std::vector<gp::Gp>& gps,
+                           PhiPosteriorKernels kernels) {
   PhiPosterior post;
   std::vector<int> at;  // indices into phi of the continuous tunable parameters
   std::vector<double> step;
@@ -309,22 +401,26 @@ PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& par
   const auto K = static_cast<Eigen::Index>(at.size());
   post.mean.resize(K);
   for (Eigen::Index a = 0; a < K; ++a) post.mean[a] = parameters.values[at[static_cast<std::size_t>(a)]];
-  post.covariance = MatrixXd::Constant(K, K, std::numeric_limits<double>::quiet_NaN());
+  post.covariance = MatrixXd::Constant(K, K, kNaN);
   if (K == 0) return post;
   std::vector<gp::Gp> g = gps;
   const auto E = static_cast<Eigen::Index>(g.size());
-  // L at phi* + sum_a d_a step_a e_a.
-  auto L = [&](const std::vector<std::pair<Eigen::Index, int>>& moves) {
+  // The residual targets at phi* + sum_a d_a step_a e_a (N x E) in *t; false when the prior
+  // rejects that phi or returns a non-finite output.
+  auto targets = [&](const std::vector<std::pair<Eigen::Index, int>>& moves, MatrixXd* t) {
     VectorXd phi = parameters.values;
     for (const auto& [a, d] : moves) phi[at[static_cast<std::size_t>(a)]] += d * step[static_cast<std::size_t>(a)];
     try {
       prior.check_phi(phi);
     } catch (const InvalidArgument&) {
-      return std::numeric_limits<double>::quiet_NaN();
+      return false;
     }
     long bad = 0;
-    const MatrixXd t = data.dx - prior_outputs(prior, data.x, data.u, phi, &bad);
-    if (bad) return std::numeric_limits<double>::quiet_NaN();
+    *t = data.dx - prior_outputs(prior, data.x, data.u, phi, &bad);
+    return bad == 0;
+  };
+  // L = sum_i log p(t_i | X, h_i) with the kernels as fitted.
+  auto L = [&](const MatrixXd& t) {
     double sum = 0;
     for (Eigen::Index i = 0; i < E; ++i) {
       auto& gi = g[static_cast<std::size_t>(i)];
@@ -333,19 +429,42 @@ PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& par
     }
     return sum;
   };
-  const double l0 = L({});
-  MatrixXd A(K, K);  // -H
+  auto L_at = [&](const std::vector<std::pair<Eigen::Index, int>>& moves) {
+    MatrixXd t;
+    return targets(moves, &t) ? L(t) : kNaN;
+  };
+  MatrixXd t0;
+  std::vector<MatrixXd> up(static_cast<std::size_t>(K)), down(static_cast<std::size_t>(K));
+  bool ok = targets({}, &t0);
+  for (Eigen::Index a = 0; a < K && ok; ++a)
+    ok = targets({{a, 1}}, &up[static_cast<std::size_t>(a)]) &&
+         targets({{a, -1}}, &down[static_cast<std::size_t>(a)]);
+  if (!ok) return post;
+  const double l0 = L(t0);
+  MatrixXd A(K, K);  // minus the Hessian of L in phi, the kernels fixed
   for (Eigen::Index a = 0; a < K; ++a) {
     const double sa = step[static_cast<std::size_t>(a)];
-    A(a, a) = -(L({{a, 1}}) - 2 * l0 + L({{a, -1}})) / (sa * sa);
+    A(a, a) = -(L(up[static_cast<std::size_t>(a)]) - 2 * l0 + L(down[static_cast<std::size_t>(a)])) /
+              (sa * sa);
     for (Eigen::Index b = 0; b < a; ++b) {
       const double sb = step[static_cast<std::size_t>(b)];
-      A(a, b) = A(b, a) = -(L({{a, 1}, {b, 1}}) - L({{a, 1}, {b, -1}}) - L({{a, -1}, {b, 1}}) +
-                            L({{a, -1}, {b, -1}})) /
+      A(a, b) = A(b, a) = -(L_at({{a, 1}, {b, 1}}) - L_at({{a, 1}, {b, -1}}) -
+                            L_at({{a, -1}, {b, 1}}) + L_at({{a, -1}, {b, -1}})) /
                           (4 * sa * sb);
     }
   }
   if (!A.allFinite()) return post;
+  // The kernels marginalised: the phi block of the inverse joint negative Hessian over
+  // (phi, h_1..h_E) is the inverse of the Schur complement A - sum_i C_i B_i^-1 C_i^T (the
+  // h_i blocks are independent given phi).
+  if (kernels == PhiPosteriorKernels::kMarginalised) {
+    std::vector<MatrixXd> absorbed(static_cast<std::size_t>(E));
+    parallel_for(static_cast<std::size_t>(E), [&](std::size_t i) {
+      absorbed[i] = kernel_absorption(gps[i], static_cast<Eigen::Index>(i), t0, up, down, step);
+    });
+    for (const auto& m : absorbed) A -= m;
+    if (!A.allFinite()) return post;
+  }
   // The flat prior over each search interval enters as a Gaussian of its variance (width^2 / 12):
   // a direction the data do not pin down keeps about the prior's spread, and no direction is
   // allowed more than it (an indefinite -H, phi* not at an exact optimum).

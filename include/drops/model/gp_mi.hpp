@@ -109,17 +109,42 @@ struct GpMiSummary {
   int screened_out = 0;  ///< candidates the screen left out (GpMiOptions::screen_iterations)
 };
 
-/// How sure GP-MI is of phi: the Laplace approximation of the posterior over the continuous
-/// tunable parameters (flat prior within the bounds) at phi*, from the joint log likelihood
-/// L(phi) = sum_i log p(dx_i - M_i(X; phi) | X, h_i) of the E output GPs with their kernels fixed
-/// at their fit: covariance = (-H + P0)^-1, H the Hessian of L at phi* (central finite
-/// differences, steps of 1e-4 of each parameter's search interval) and P0 = diag(12 / width^2),
-/// the flat prior over each search interval as a Gaussian of the same variance; the eigenvalues
-/// are floored at the smallest prior precision. A direction in which L is flat (two parameters
-/// that enter the dynamics only through their product, a parameter the data do not excite) keeps
-/// about the prior's spread (width / sqrt(12)), so the parameters involved show a standard
-/// deviation of the order of their interval and a correlation of about +-1 (the trade-off), where
-/// a parameter the data pin down has one orders of magnitude smaller. Units: those of phi.
+/// Whether phi_posterior marginalises the output GPs' kernel hyper-parameters or holds them fixed.
+enum class PhiPosteriorKernels {
+  kMarginalised,  ///< the joint Laplace approximation over phi and every h_i (the default)
+  kFixed,         ///< the kernels held at their fit: the posterior of phi given them
+};
+
+/// How sure GP-MI is of phi: the Laplace approximation (Laplace's method, MacKay 2003, ch. 27) of
+/// the posterior over the continuous tunable parameters (K of them) at phi* and the kernels' fit
+/// h* = (h_1..h_E), from the joint log likelihood (the GPs' marginal likelihood and its gradient
+/// in h: Rasmussen & Williams 2006, §5.4)
+///   L(phi, h) = sum_i log p(dx_i - M_i(X; phi) | X, h_i)
+/// of the E output GPs, h_i the log hyper-parameters of output i (H_i of them; Gp::h_params).
+/// With A = -(Hessian of L) at (phi*, h*) in blocks A_pp (K x K), A_ph_i (K x H_i), A_hh_i
+/// (H_i x H_i; the outputs do not share hyper-parameters) and P_p, P_h the priors' precisions
+/// below, the covariance is the phi block of the inverse of the joint (K + sum H_i) precision,
+///   (A_pp + P_p - sum_i A_ph_i (A_hh_i + P_h_i)^-1 A_hp_i)^-1   (K x K, a Schur complement),
+/// i.e. the curvature of the profile likelihood max_h L(phi, h): where refitting the kernels takes
+/// up part of a change of phi (the residual GPs absorb it), phi is known less well than with the
+/// kernels fixed (PhiPosteriorKernels::kFixed: (A_pp + P_p)^-1). A_pp: central second differences
+/// of L in phi, steps of 1e-4 of each parameter's search interval; A_ph_i: central differences of
+/// the analytic gradient d log p / d h_i (Gp::log_marginal_likelihood_gradient) between those phi
+/// steps; A_hh_i: central differences of that gradient along each log hyper-parameter (steps of
+/// 1e-3), symmetrised. Priors: flat over each search interval of phi and over Rprop's box of each
+/// log hyper-parameter ([-10, 10], log sigma_n in [log 1e-5, 10]; Gp::optimize_h_params), each as
+/// a Gaussian of the same variance, P = diag(12 / width^2); the eigenvalues of A_hh_i + P_h_i and
+/// of the phi block are floored at the smallest of their prior precisions, so that no direction is
+/// allowed more than its prior's spread. A hyper-parameter that the fit left on its box is held
+/// fixed (it is not marginalised): the box keeps it there for nearby phi, so it takes up nothing.
+/// The soft walls of RpropOptions::penalty are not part of L, so a hyper-parameter they hold
+/// counts as free. A direction in which L is flat (two parameters that enter the dynamics only
+/// through their product, a parameter the data do not excite) or in which L still rises with the
+/// kernels following (phi* short of the maximum of L over phi and h together: the search stopped
+/// on a ridge that the kernels' refit follows) keeps about the prior's spread (width / sqrt(12)),
+/// so the parameters involved show a standard deviation of the order of their interval and a
+/// correlation of about +-1 (the trade-off), where a parameter the data pin down has one orders of
+/// magnitude smaller. Units: those of phi.
 struct PhiPosterior {
   std::vector<std::string> names;  ///< the continuous tunable parameters (dim K)
   VectorXd mean;                   ///< phi* on them (dim K)
@@ -132,11 +157,16 @@ struct PhiPosterior {
 /// The PhiPosterior at parameters.values (phi*), for the continuous tunable entries of phi
 /// (discrete ones are held at their value; none: an empty posterior). data: the transitions the
 /// GPs were fitted on (gp_in, x, u, dx); gps: the E output GPs fitted at phi* on data.gp_in (not
-/// modified: copies are evaluated). A stencil point the prior rejects (check_phi) or that gives a
-/// non-finite likelihood makes its parameters' entries NaN. Costs 2K^2 + 1 evaluations of the
-/// prior on the data and E O(N^2) solves each. Thread-safe (reads only).
+/// modified: copies are evaluated); kernels: whether their hyper-parameters are marginalised (the
+/// default) or held fixed. A stencil point the prior rejects (check_phi) or that gives a
+/// non-finite likelihood, or a hyper-parameter step whose factorisation fails, makes the whole
+/// covariance NaN. Cost: 2K^2 + 1 evaluations of the prior on the data and E O(N^2) solves each;
+/// marginalised, also per output GP with F hyper-parameters off the box 2K + 2F gradients
+/// (O(N^3) each) and 2F factorisations, the outputs in parallel (about the final kernel fit's time
+/// for the dynamics GPs of a 4-state system at N = 500). Thread-safe (reads only).
 PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
-                           const Dataset& data, const std::vector<gp::Gp>& gps);
+                           const Dataset& data, const std::vector<gp::Gp>& gps,
+                           PhiPosteriorKernels kernels = PhiPosteriorKernels::kMarginalised);
 
 /// log sum_i exp(v_i), computed stably (max shift). Returns -inf for an empty or all -inf vector.
 /// Thread-safe.
