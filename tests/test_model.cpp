@@ -463,6 +463,20 @@ TEST(GpMi, AParameterTheKernelsCanTakeOverShowsItsPriorsSpread) {
   EXPECT_LE(std::abs(post.mean[1] - truth[1]), 2 * sd[1]);
 }
 
+// The pendubot from prior A (m1 and l2 off; m1, m2, l1, l2 tunable) on two episodes of the
+// actual system: GP-MI's phi* lies on the ridge of masses against lengths that the kernels'
+// refit follows, and each interval phi* +- 2 sd holds the actual value, 0.5.
+TEST(GpMi, ThePendubotsIntervalsFromPriorAHoldTheActualValues) {
+  auto m = pendubot_model({}, model::ModelType::kGpMi, tunable_prior("tunable-useful"));
+  const auto s = m->learn(actual_data(2));
+  const auto& post = s.phi_posterior;
+  ASSERT_EQ(post.names, (std::vector<std::string>{"m1", "m2", "l1", "l2"}));
+  const VectorXd sd = post.stddev();
+  std::printf("[info] phi* %g %g %g %g, sd %g %g %g %g\n", post.mean[0], post.mean[1],
+              post.mean[2], post.mean[3], sd[0], sd[1], sd[2], sd[3]);
+  for (int i = 0; i < 4; ++i) EXPECT_LE(std::abs(post.mean[i] - 0.5), 2 * sd[i]) << post.names[i];
+}
+
 TEST(GpMi, IdentifiesM2FromTwoEpisodesStartingFromTheTunablePrior) {
   const auto data = actual_data(2);
   ASSERT_EQ(data.size(), 100u);
