@@ -747,8 +747,16 @@ TEST(GpMi, TheCandidateScreenLeavesOutTheCandidatesBelowItsMarginAndKeepsTheChoi
     EXPECT_LT(screened.rprop_iterations, full.rprop_iterations);
   }
 
-  model::GpMiOptions bad = o;
-  bad.screen_iterations = o.inner_rprop_iterations;  // not shorter than the full fit
+  // A screen as long as the full fit is no screen.
+  model::GpMiOptions as_long = o;
+  as_long.screen_iterations = o.inner_rprop_iterations;
+  as_long.screen_margin = 0.0;
   auto gps = fresh();
+  const auto unscreened = model::identify_phi(prior, p, d, as_long, rprop, gps, {});
+  EXPECT_EQ(unscreened.screened_out, 0);
+  EXPECT_EQ(unscreened.rprop_iterations, full.rprop_iterations);
+
+  model::GpMiOptions bad = o;
+  bad.screen_iterations = -1;
   EXPECT_THROW(model::identify_phi(prior, p, d, bad, rprop, gps, {}), InvalidArgument);
 }

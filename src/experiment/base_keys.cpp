@@ -151,7 +151,7 @@ KeyTable<BaseOptions> make_base_key_table() {
       .range(0, 99999)
       .help("discrete phi (nested search): Rprop iterations of a first, short kernel fit of "
             "every candidate; only those within model.gp_mi.screen_margin of the best get the "
-            "full fit (0 = no screen; less than model.gp_mi.inner_rprop_iterations)");
+            "full fit (0, or not less than model.gp_mi.inner_rprop_iterations: no screen)");
   t.add("model.gp_mi.screen_margin",
         [=](auto& o) -> auto& { return model(o).gp_mi.screen_margin; })
       .range(0, 1e9)

@@ -44,8 +44,8 @@ double* scratch(std::vector<double>& buf, std::size_t n) {
 
 // The N x N matrices of the fitting path (factorise, the likelihood's gradient), kept per thread
 // between calls: Rprop factorises K at every iteration, and matrices of this size allocated afresh
-// each time made the allocator return memory to the system and fault it back in (hexapod GP-MI at
-// N = 400: 15 % of the time in page faults). factorise() swaps its result with the GP's members,
+// each time made the allocator return memory to the system and fault it back in (15 % of the time
+// in page faults for a GP-MI search over 48 output GPs at N = 400). factorise() swaps its result with the GP's members,
 // so the GP's previous matrices become the thread's buffers. Matrices larger than
 // kMaxKeptEntries doubles are allocated per call and not kept.
 struct FitWorkspace {

@@ -113,7 +113,8 @@ GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& para
   std::vector<double> screened;
   std::vector<std::vector<gp::RpropState>> screen_states;
   double best_screened = -kInf;
-  if (options.screen_iterations > 0 && all_discrete) {
+  if (options.screen_iterations > 0 && options.screen_iterations < options.inner_rprop_iterations &&
+      all_discrete) {
     gp::RpropOptions short_fit = inner;
     short_fit.max_iterations = options.screen_iterations;
     std::vector<VectorXd> h;
@@ -222,9 +223,8 @@ bool GpMiOptions::IsValid(std::string* why) const {
   if (rounds < 1) return fail("gp_mi.rounds must be >= 1");
   if (inner_rprop_iterations < 1) return fail("gp_mi.inner_rprop_iterations must be >= 1");
   if (max_points < 0) return fail("gp_mi.max_points must be >= 0");
-  if (screen_iterations < 0 || (screen_iterations > 0 && screen_iterations >= inner_rprop_iterations))
-    return fail("gp_mi.screen_iterations must be 0 (no screen) or in [1, inner_rprop_iterations = " +
-                std::to_string(inner_rprop_iterations) + "), got " + std::to_string(screen_iterations));
+  if (screen_iterations < 0)
+    return fail("gp_mi.screen_iterations must be >= 0, got " + std::to_string(screen_iterations));
   if (!(screen_margin >= 0.0) || !std::isfinite(screen_margin))
     return fail("gp_mi.screen_margin must be a finite value >= 0");
   return true;

@@ -84,8 +84,8 @@ struct GpMiOptions {
   /// GP's kernels, so a candidate that passes gets the fit and score it would have without the
   /// screen, and the choice, the kernels and the score are those of the unscreened search
   /// whenever the winner passes. Cost: screen_iterations for every candidate, the rest of
-  /// inner_rprop_iterations for those that pass. 0 = no screen (every candidate fitted in full);
-  /// otherwise in [1, inner_rprop_iterations). Ignored when a tuned entry is continuous.
+  /// inner_rprop_iterations for those that pass. >= 0; 0 or at least inner_rprop_iterations: no
+  /// screen (every candidate fitted in full). Ignored when a tuned entry is continuous.
   int screen_iterations = 0;
   /// The screen's margin in units of the score (nats), >= 0: a candidate whose screened score is
   /// more than this below the best screened score is not fitted further.
