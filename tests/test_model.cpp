@@ -592,6 +592,46 @@ TEST(GpMi, ExhaustiveSearchOverADiscreteParameterPicksTheActualValue) {
   }
 }
 
+namespace {
+
+// The pendubot's m2 as a discrete phi of four choices (the others at the "tunable" preset).
+model::PriorParameters discrete_m2_parameters() {
+  model::PriorParameters p;
+  p.names = pendubot::parameter_names();
+  p.values = pendubot::preset("tunable").to_phi();
+  p.tunable = {1};
+  p.lower = VectorXd::Constant(1, 0.3);
+  p.upper = VectorXd::Constant(1, 0.8);
+  p.choices = {{0.35, 0.5, 0.65, 0.75}};
+  return p;
+}
+
+// A naive loop (the oracle of the tests below): for each choice of p's discrete parameter, the
+// sum of the log likelihoods of fresh GPs, one per output, fitted by rprop on the residuals.
+std::vector<double> fresh_fit_scores(const model::MeanFunction& prior,
+                                     const model::PriorParameters& p, const model::Dataset& d,
+                                     const gp::RpropOptions& rprop) {
+  std::vector<double> scores;
+  for (double v : p.choices[0]) {
+    VectorXd phi = p.values;
+    phi[p.tunable[0]] = v;
+    long bad = 0;
+    const MatrixXd t = d.dx - model::prior_outputs(prior, d.x, d.u, phi, &bad);
+    EXPECT_EQ(bad, 0);
+    double sum = 0;
+    for (Eigen::Index i = 0; i < t.cols(); ++i) {
+      gp::Gp g(static_cast<int>(d.gp_in.cols()));
+      g.compute(d.gp_in, t.col(i));
+      g.optimize_h_params(rprop);
+      sum += g.log_marginal_likelihood();
+    }
+    scores.push_back(sum);
+  }
+  return scores;
+}
+
+}  // namespace
+
 // candidate_start = initial: every candidate of a discrete phi is fitted from a new GP's kernels,
 // so GP-MI's choice, its score and each candidate's score are those of a naive loop of fresh fits
 // (the oracle), whatever kernels the GPs held on entry; best_so_far starts from those kernels and
@@ -601,13 +641,7 @@ TEST(GpMi, InitialCandidateStartScoresEveryCandidateAsAFreshFit) {
   pendubot::SwingUpTask task;
   const int E = task.state_dim();
   const model::Dataset d = model::make_dataset(data, &task, E, task.action_dim());
-  model::PriorParameters p;
-  p.names = pendubot::parameter_names();
-  p.values = pendubot::preset("tunable").to_phi();
-  p.tunable = {1};
-  p.lower = VectorXd::Constant(1, 0.3);
-  p.upper = VectorXd::Constant(1, 0.8);
-  p.choices = {{0.35, 0.5, 0.65, 0.75}};
+  const model::PriorParameters p = discrete_m2_parameters();
   pendubot::PendubotPrior prior;
   model::GpMiOptions o;
   o.score = model::GpMiScore::kSumOfLogLikelihoods;
@@ -616,22 +650,7 @@ TEST(GpMi, InitialCandidateStartScoresEveryCandidateAsAFreshFit) {
   rprop.max_iterations = 20;
 
   // The oracle: for each choice, E fresh GPs fitted with 20 Rprop iterations.
-  std::vector<double> oracle;
-  for (double m2 : p.choices[0]) {
-    VectorXd phi = p.values;
-    phi[1] = m2;
-    long bad = 0;
-    const MatrixXd t = d.dx - model::prior_outputs(prior, d.x, d.u, phi, &bad);
-    ASSERT_EQ(bad, 0);
-    double sum = 0;
-    for (int i = 0; i < E; ++i) {
-      gp::Gp g(static_cast<int>(d.gp_in.cols()));
-      g.compute(d.gp_in, t.col(i));
-      g.optimize_h_params(rprop);
-      sum += g.log_marginal_likelihood();
-    }
-    oracle.push_back(sum);
-  }
+  const std::vector<double> oracle = fresh_fit_scores(prior, p, d, rprop);
   const auto best = std::max_element(oracle.begin(), oracle.end());
   const double best_m2 = p.choices[0][static_cast<std::size_t>(best - oracle.begin())];
   auto is_an_oracle_score = [&](double s) {
@@ -680,13 +699,7 @@ TEST(GpMi, TheCandidateScreenLeavesOutTheCandidatesBelowItsMarginAndKeepsTheChoi
   pendubot::SwingUpTask task;
   const int E = task.state_dim();
   const model::Dataset d = model::make_dataset(data, &task, E, task.action_dim());
-  model::PriorParameters p;
-  p.names = pendubot::parameter_names();
-  p.values = pendubot::preset("tunable").to_phi();
-  p.tunable = {1};
-  p.lower = VectorXd::Constant(1, 0.3);
-  p.upper = VectorXd::Constant(1, 0.8);
-  p.choices = {{0.35, 0.5, 0.65, 0.75}};
+  const model::PriorParameters p = discrete_m2_parameters();
   pendubot::PendubotPrior prior;
   model::GpMiOptions o;
   o.score = model::GpMiScore::kSumOfLogLikelihoods;
@@ -697,23 +710,9 @@ TEST(GpMi, TheCandidateScreenLeavesOutTheCandidatesBelowItsMarginAndKeepsTheChoi
   constexpr int kScreen = 4;
 
   // The oracle: each choice's score after kScreen Rprop iterations of E fresh GPs.
-  std::vector<double> short_scores;
-  for (double m2 : p.choices[0]) {
-    VectorXd phi = p.values;
-    phi[1] = m2;
-    long bad = 0;
-    const MatrixXd t = d.dx - model::prior_outputs(prior, d.x, d.u, phi, &bad);
-    double sum = 0;
-    for (int i = 0; i < E; ++i) {
-      gp::Gp g(static_cast<int>(d.gp_in.cols()));
-      g.compute(d.gp_in, t.col(i));
-      gp::RpropOptions r = rprop;
-      r.max_iterations = kScreen;
-      g.optimize_h_params(r);
-      sum += g.log_marginal_likelihood();
-    }
-    short_scores.push_back(sum);
-  }
+  gp::RpropOptions short_fit = rprop;
+  short_fit.max_iterations = kScreen;
+  const std::vector<double> short_scores = fresh_fit_scores(prior, p, d, short_fit);
   std::vector<double> sorted = short_scores;
   std::sort(sorted.rbegin(), sorted.rend());
   ASSERT_GT(sorted[0] - sorted[1], 1e-6) << "the test needs a single best short fit";
