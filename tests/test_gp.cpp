@@ -9,6 +9,7 @@
 #include <string>
 #include <numbers>
 #include <utility>
+#include <vector>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/rng.hpp"
@@ -499,6 +500,55 @@ TEST(Gp, SetTargetsMatchesCompute) {
   c.set_h_params(h);
   c.compute(X, y1);
   EXPECT_GT((c.alpha() - a.alpha()).norm(), 1e-3);
+}
+
+// Per-query weights: query q's mean is that of the GP of the targets whose weights it is given
+// (oracle: a copy with set_targets, which refactorises nothing), its variance unchanged, for batch
+// sizes that exercise every pack split and for a kernel without the SIMD path.
+TEST(Gp, PredictionsWithAQuerysOwnWeightsAreThoseOfTheGpOfItsTargets) {
+  Rng rng(11);
+  const MatrixXd X = RandomMatrix(rng, 60, 3, -2.0, 2.0);
+  const VectorXd y = RandomVector(rng, 60, -1.0, 1.0);
+  const VectorXd y2 = RandomVector(rng, 60, -3.0, 3.0);
+  const VectorXd h = RandomH(rng, 3);
+  Gp se(3);
+  se.set_h_params(h);
+  Gp matern(drops::gp::Matern52(1.3, 0.8, 3));
+  for (Gp* base : {&se, &matern}) {
+    Gp& gp = *base;
+    gp.compute(X, y);
+    Gp other = gp;
+    other.set_targets(y2);
+    EXPECT_EQ(gp.solve(y), gp.alpha());  // the same solves, the same bits
+    MatrixXd weights(60, 2);
+    weights.col(0) = gp.alpha();
+    weights.col(1) = gp.solve(y2);
+    for (const int B : {1, 3, 8, 13}) {
+      const MatrixXd Q = RandomMatrix(rng, B, 3, -2.5, 2.5);
+      std::vector<int> columns(static_cast<std::size_t>(B));
+      for (int q = 0; q < B; ++q) columns[static_cast<std::size_t>(q)] = (q * 7 + B) % 2;
+      VectorXd m, v, m0, v0, m2, v2;
+      gp.predict_batch(Q, weights, columns, m, v);
+      gp.predict_batch(Q, m0, v0);
+      other.predict_batch(Q, m2, v2);
+      for (int q = 0; q < B; ++q) {
+        const bool own = columns[static_cast<std::size_t>(q)] == 0;
+        if (base == &se) {  // the SIMD kernel: the same operations, the same bits
+          EXPECT_EQ(m[q], own ? m0[q] : m2[q]) << "B " << B << " query " << q;
+        } else {  // Eigen's product against one dot product per query: round-off apart
+          EXPECT_NEAR(m[q], own ? m0[q] : m2[q], 1e-12) << "B " << B << " query " << q;
+        }
+        EXPECT_EQ(v[q], v0[q]);
+      }
+      if (B == 13) EXPECT_GT((m2 - m0).cwiseAbs().maxCoeff(), 1e-3);  // the targets matter
+    }
+    VectorXd m, v;
+    const MatrixXd Q = RandomMatrix(rng, 2, 3, -1.0, 1.0);
+    EXPECT_THROW(gp.predict_batch(Q, weights, {0, 2}, m, v), drops::InvalidArgument);
+    EXPECT_THROW(gp.predict_batch(Q, weights, {0}, m, v), drops::InvalidArgument);
+    EXPECT_THROW(gp.predict_batch(Q, weights.topRows(59), {0, 1}, m, v), drops::InvalidArgument);
+    EXPECT_THROW(gp.solve(VectorXd::Ones(59)), drops::InvalidArgument);
+  }
 }
 
 // 7. N = 0 predicts the prior.

@@ -10,6 +10,7 @@
 #include "drops/core/errors.hpp"
 #include "drops/model/dataset.hpp"
 #include "drops/model/dynamics_model.hpp"
+#include "drops/model/gp_dynamics.hpp"
 #include "drops/model/gp_mi.hpp"
 #include "drops/rollout/rollout.hpp"
 #include "drops/pendubot/pendubot.hpp"
@@ -758,4 +759,186 @@ TEST(GpMi, TheCandidateScreenLeavesOutTheCandidatesBelowItsMarginAndKeepsTheChoi
   model::GpMiOptions bad = o;
   bad.screen_iterations = -1;
   EXPECT_THROW(model::identify_phi(prior, p, d, bad, rprop, gps, {}), InvalidArgument);
+}
+
+namespace {
+
+// The GP-MI model on the pendubot from prior A with rollouts over phi's posterior, learnt on two
+// episodes of the actual system.
+struct PosteriorRolloutModel {
+  std::vector<Transition> data = actual_data(2);
+  std::shared_ptr<pendubot::SwingUpTask> task = std::make_shared<pendubot::SwingUpTask>();
+  std::shared_ptr<pendubot::PendubotPrior> prior = std::make_shared<pendubot::PendubotPrior>();
+  model::GpDynamicsModel model;
+  model::ModelSummary summary;
+  explicit PosteriorRolloutModel(model::RolloutPhi rollout_phi)
+      : model(options(rollout_phi), task, prior, tunable_prior("tunable-useful")) {
+    summary = model.learn(data);
+  }
+  static model::ModelOptions options(model::RolloutPhi rollout_phi) {
+    model::ModelOptions o;
+    o.type = model::ModelType::kGpMi;
+    o.gp_mi.rollout_phi = rollout_phi;
+    return o;
+  }
+};
+
+// One of a model's phi samples as a model of its own (every row under that sample).
+class OneSample final : public model::DynamicsModel {
+ public:
+  OneSample(const model::DynamicsModel& m, int sample) : m_(m), sample_(sample) {}
+  model::ModelSummary learn(const std::vector<Transition>&, const model::ModelProgress&) override {
+    throw Error("OneSample::learn: not used");
+  }
+  void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override {
+    MatrixXd X = x.transpose(), U = u.transpose(), mean, var;
+    predict_batch(X, U, mean, var);
+    out.mean = mean.row(0).transpose();
+    out.var = var.row(0).transpose();
+  }
+  void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
+                     MatrixXd& var) const override {
+    m_.predict_batch_sampled(X, U, std::vector<int>(static_cast<std::size_t>(X.rows()), sample_),
+                             mean, var);
+  }
+  VectorXd phi() const override { return m_.phi(); }
+  model::ModelState state() const override { return {}; }
+  void restore(const model::ModelState&) override {}
+
+ private:
+  const model::DynamicsModel& m_;
+  int sample_;
+};
+
+}  // namespace
+
+// model.gp_mi.rollout_phi: posterior. The draws follow the Laplace posterior (moments within
+// sampling error; the parameters outside it stay at phi*), one seed gives the same draws, and
+// under sample s the model is the simulator at phi_s plus the output GPs conditioned on the
+// residuals at phi_s (oracle: copies of the output GPs given those targets).
+TEST(GpMi, PosteriorSamplesFollowThePosteriorAndPredictAsTheGpsOfTheirResiduals) {
+  PosteriorRolloutModel f(model::RolloutPhi::kPosterior);
+  auto& m = f.model;
+  const auto& post = f.summary.phi_posterior;
+  ASSERT_EQ(post.names.size(), 4u);
+  ASSERT_TRUE(post.covariance.allFinite());
+  EXPECT_EQ(m.phi_samples(), 0);
+  EXPECT_THROW(m.draw_phi_samples(0, 7), InvalidArgument);
+
+  const int S = 4000;
+  const auto ps = m.draw_phi_samples(S, 7);
+  EXPECT_EQ(ps.samples, S);
+  EXPECT_EQ(ps.rejected, 0);
+  EXPECT_LT(ps.clamped, S / 50);  // the interval [0.05, 1] is > 2 sd away from phi*
+  ASSERT_EQ(m.phi_samples(), S);
+  MatrixXd P(S, 4);
+  for (int s = 0; s < S; ++s) {
+    const VectorXd& phi = m.sample_phis()[static_cast<std::size_t>(s)];
+    P.row(s) = phi.head(4).transpose();
+    EXPECT_EQ(phi.tail(2), m.phi().tail(2));  // b1, b2: not tunable
+  }
+  const VectorXd mean = P.colwise().mean().transpose();
+  const MatrixXd centred = P.rowwise() - mean.transpose();
+  const MatrixXd cov = centred.transpose() * centred / (S - 1);
+  const VectorXd sd = post.stddev();
+  const MatrixXd corr = post.correlation();
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_NEAR(mean[k], post.mean[k], 5 * sd[k] / std::sqrt(double(S))) << post.names[k];
+    EXPECT_NEAR(std::sqrt(cov(k, k)), sd[k], 0.05 * sd[k]) << post.names[k];
+    for (int j = 0; j < 4; ++j)
+      EXPECT_NEAR(cov(k, j) / std::sqrt(cov(k, k) * cov(j, j)), corr(k, j), 0.05);
+  }
+  EXPECT_GT(sd.maxCoeff(), 0.05);  // a posterior wide enough for the test to mean something
+
+  // One seed, one set of draws.
+  const std::vector<VectorXd> first = m.sample_phis();
+  m.draw_phi_samples(S, 7);
+  EXPECT_EQ(m.sample_phis(), first);
+  m.draw_phi_samples(3, 8);
+  ASSERT_EQ(m.phi_samples(), 3);
+  EXPECT_NE(m.sample_phis()[0], first[0]);
+
+  // Predictions under samples 2, 0, 1, 2, 0 of rows near the data.
+  const model::Dataset d = model::make_dataset(f.data, f.task.get(), 4, 1);
+  const std::vector<int> sample = {2, 0, 1, 2, 0};
+  MatrixXd X(5, 4), U(5, 1);
+  for (int b = 0; b < 5; ++b) {
+    X.row(b) = d.x.row(7 + 19 * b) + Eigen::RowVectorXd::Constant(4, 0.05);
+    U.row(b) = d.u.row(7 + 19 * b);
+  }
+  MatrixXd mean_s, var_s, mean_p, var_p, obs;
+  m.predict_batch_sampled(X, U, sample, mean_s, var_s);
+  m.predict_batch(X, U, mean_p, var_p);
+  f.task->observe_batch(X, obs);
+  MatrixXd in(5, obs.cols() + 1);
+  in << obs, U;
+  for (int b = 0; b < 5; ++b) {
+    const VectorXd& phi = m.sample_phis()[static_cast<std::size_t>(sample[static_cast<std::size_t>(b)])];
+    MatrixXd residual_means, Mrow;
+    f.prior->evaluate_batch(d.x, d.u, phi, residual_means);
+    f.prior->evaluate_batch(X.row(b), U.row(b), phi, Mrow);
+    for (int i = 0; i < 4; ++i) {
+      gp::Gp g = m.output_gps()[static_cast<std::size_t>(i)];
+      g.set_targets(d.dx.col(i) - residual_means.col(i));
+      double gm, gv;
+      g.predict(in.row(b).transpose(), gm, gv);
+      EXPECT_NEAR(mean_s(b, i), Mrow(0, i) + gm, 1e-9) << "row " << b << " output " << i;
+      EXPECT_NEAR(var_s(b, i), gv, 1e-12);
+      EXPECT_EQ(var_s(b, i), var_p(b, i));
+    }
+  }
+  EXPECT_GT((mean_s - mean_p).cwiseAbs().maxCoeff(), 1e-6);  // the samples differ from phi*
+  EXPECT_THROW(m.predict_batch_sampled(X, U, {0, 1, 2, 3, 0}, mean_s, var_s), InvalidArgument);
+  EXPECT_THROW(m.predict_batch_sampled(X, U, {0, 1}, mean_s, var_s), InvalidArgument);
+
+  // A new learn() discards the draws.
+  m.learn(f.data);
+  EXPECT_EQ(m.phi_samples(), 0);
+}
+
+// rollout_phi: point (the default): no draws, and predict_batch_sampled is predict_batch.
+TEST(GpMi, ThePointEstimateDrawsNoSamples) {
+  PosteriorRolloutModel f(model::RolloutPhi::kPoint);
+  EXPECT_EQ(f.model.draw_phi_samples(20, 7).samples, 0);
+  EXPECT_EQ(f.model.phi_samples(), 0);
+  const model::Dataset d = model::make_dataset(f.data, f.task.get(), 4, 1);
+  MatrixXd mean_s, var_s, mean_p, var_p;
+  f.model.predict_batch_sampled(d.x.topRows(3), d.u.topRows(3), {0, 0, 0}, mean_s, var_s);
+  f.model.predict_batch(d.x.topRows(3), d.u.topRows(3), mean_p, var_p);
+  EXPECT_EQ(mean_s, mean_p);
+  EXPECT_EQ(var_s, var_p);
+  EXPECT_THROW(f.model.predict_batch_sampled(d.x.topRows(1), d.u.topRows(1), {1}, mean_s, var_s),
+               InvalidArgument);
+}
+
+// Rollout r of a policy runs under sample r mod S: with sampling of the predictive noise off, each
+// rollout's return is that of the policy on the model of its sample alone (oracle: OneSample).
+TEST(GpMi, RolloutRRunsUnderPhiSampleRModS) {
+  PosteriorRolloutModel f(model::RolloutPhi::kPosterior);
+  f.model.draw_phi_samples(3, 5);
+  policy::NeuralNetPolicyOptions po;
+  po.input_scale = VectorXd(6);
+  po.input_scale << 10, 10, 1, 1, 1, 1;
+  policy::NeuralNetPolicy pol(po);
+  Rng rng(3);
+  VectorXd theta(pol.param_dim());
+  for (int i = 0; i < theta.size(); ++i) theta[i] = rng.uniform(-1, 1);
+  rollout::RolloutOptions ro;
+  ro.sample = false;
+  ro.batch = 1;  // a query's round-off does not depend on its batch then
+  ro.rollouts = 6;
+  VectorXd returns;
+  MatrixXd per_rollout;
+  rollout::evaluate_policies(*f.task, f.model, pol, {theta}, {42}, ro, returns, nullptr,
+                             &per_rollout);
+  ro.rollouts = 1;
+  for (int r = 0; r < 6; ++r) {
+    const OneSample alone(f.model, r % 3);
+    VectorXd one;
+    rollout::evaluate_policies(*f.task, alone, pol, {theta}, {42}, ro, one);
+    EXPECT_EQ(per_rollout(0, r), one[0]) << "rollout " << r;
+  }
+  EXPECT_GT(std::abs(per_rollout(0, 0) - per_rollout(0, 1)) +
+                std::abs(per_rollout(0, 1) - per_rollout(0, 2)),
+            1e-6);  // the samples lead to other returns
 }

@@ -1,5 +1,6 @@
 #include "drops/algo/black_drops.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -19,7 +20,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Stream tags: each random stream of a run is derive_seed(seed, {episode, tag, ...}).
 enum StreamTag : std::uint64_t { kRealEpisode = 1, kPolicySearch = 2, kRandomPolicy = 3,
-                                 kPredicted = 4 };
+                                 kPredicted = 4, kPhiSamples = 5 };
 
 // BlackDropsOwnState's entry of RunState::extra (checkpoint.json "extra").
 constexpr const char* kTrustRegionKey = "trust_region_radius";
@@ -289,6 +290,13 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       rec.model = model->learn(p.data, [&](const std::string&, int evals, double best) {
         status(episode, "model", evals, best);
       });
+      // Rollouts over phi's posterior (model.gp_mi.rollout_phi): one draw per rollout index of
+      // the evaluation with the most rollouts (rollout r of any evaluation uses draw r mod S).
+      const int draws = std::max({options.search.rollouts.rollouts,
+                                  options.search.reevaluation.rollouts, options.predicted_rollouts});
+      rec.model.phi_sampling = model->draw_phi_samples(
+          draws,
+          derive_seed(options.seed, {static_cast<std::uint64_t>(episode), kPhiSamples}));
       rec.model_seconds = rec.model.seconds;
       rec.phi = model->phi();
     }

@@ -131,6 +131,12 @@ KeyTable<BaseOptions> make_base_key_table() {
       .help("nested search (and a discrete phi): each candidate's kernel fit starts from the "
             "best candidate's kernels so far, or from a new GP's (equal terms for every "
             "candidate; docs/architecture.md)");
+  t.add("model.gp_mi.rollout_phi", [=](auto& o) -> auto& { return model(o).gp_mi.rollout_phi; })
+      .values({{"point", model::RolloutPhi::kPoint},
+               {"posterior", model::RolloutPhi::kPosterior}})
+      .help("the phi of the rollouts on the model: GP-MI's point estimate, or per rollout index "
+            "one draw from phi's posterior (continuous tunable phi; the GP residuals conditioned "
+            "on the data at that phi); summary.json counts the draws (phi_samples)");
   t.add("model.gp_mi.max_evaluations",
         [=](auto& o) -> auto& { return model(o).gp_mi.max_evaluations; })
       .range(1, 1000000)

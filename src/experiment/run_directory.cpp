@@ -466,6 +466,9 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
     }
     e["phi_posterior"] = {{"names", post.names}, {"mean", mean}, {"sd", sds}, {"correlation", corr}};
   }
+  // The phi samples the rollouts used (model.gp_mi.rollout_phi: posterior).
+  if (const auto& ps = rec.model.phi_sampling; ps.samples > 0)
+    e["phi_samples"] = {{"samples", ps.samples}, {"clamped", ps.clamped}, {"rejected", ps.rejected}};
   // Where the real return fell in the model's predictive distribution of it.
   if (const auto c = algo::calibration(rec))
     e["calibration"] = {{"quantile", c->quantile},
@@ -1053,7 +1056,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
           "nonfinite_model_steps", "nonfinite_prior_outputs", "phi_evaluations",
           "phi_screened_out", "rprop_iterations", "trajectories", "policy_search", "policy_search_runs",
-          "policy_selection", "calibration", "phi_posterior"};
+          "policy_selection", "calibration", "phi_posterior", "phi_samples"};
       for (const auto& e : s.value("episodes", nlohmann::json::array())) {
         EpisodeResult ep;
         ep.episode = e.value("episode", static_cast<int>(run.episodes.size()) + 1);

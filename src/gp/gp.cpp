@@ -444,6 +444,39 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
 
 void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
                        Eigen::VectorXd& variance) const {
+  predict_rows(Xq, nullptr, nullptr, mean, variance);
+}
+
+void Gp::predict_batch(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd& weights,
+                       const std::vector<int>& columns, Eigen::VectorXd& mean,
+                       Eigen::VectorXd& variance) const {
+  check_size("Gp::predict_batch: weights rows (one per training point)", X_.rows(),
+             weights.rows());
+  check_size("Gp::predict_batch: columns (one per query)", Xq.rows(),
+             static_cast<Index>(columns.size()));
+  for (const int c : columns) {
+    if (c < 0 || c >= weights.cols()) {
+      throw InvalidArgument("Gp::predict_batch: column " + std::to_string(c) +
+                            " of weights out of range [0, " + std::to_string(weights.cols()) +
+                            ")");
+    }
+  }
+  predict_rows(Xq, &weights, &columns, mean, variance);
+}
+
+Eigen::VectorXd Gp::solve(const Eigen::VectorXd& y) const {
+  check_size("Gp::solve: y (one target per training point)", X_.rows(), y.size());
+  VectorXd x = y;
+  if (x.size() > 0) {
+    L_.triangularView<Eigen::Lower>().solveInPlace(x);
+    L_.triangularView<Eigen::Lower>().transpose().solveInPlace(x);
+  }
+  return x;
+}
+
+void Gp::predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
+                      const std::vector<int>* columns, Eigen::VectorXd& mean,
+                      Eigen::VectorXd& variance) const {
   check_size("Gp::predict_batch: Xq columns (input dimension)", input_dim_, Xq.cols());
   const Index B = Xq.rows();
   const Index n = X_.rows();
@@ -459,14 +492,19 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
   }
   if (!se_) {
     MatrixXd KT = kernel_->gram(Xq.rowwise() - X_mean_, X_.rowwise() - X_mean_).transpose();
-    mean = KT.transpose() * alpha_;
+    if (weights) {
+      for (Index q = 0; q < B; ++q)
+        mean[q] = KT.col(q).dot(weights->col((*columns)[static_cast<std::size_t>(q)]));
+    } else {
+      mean = KT.transpose() * alpha_;
+    }
     L_.triangularView<Eigen::Lower>().solveInPlace(KT);
     variance = (sf2 - KT.colwise().squaredNorm().transpose().array()).max(0.0).matrix();
     return;
   }
   const Index Bp = (B + 7) / 8 * 8;  // queries padded to a multiple of 8 (padding rows are 0)
   thread_local std::vector<double> buf;
-  double* p = scratch(buf, static_cast<std::size_t>(Bp * (D + 2) + Bp + n * Bp));
+  double* p = scratch(buf, static_cast<std::size_t>(Bp * (D + 2) + Bp + n * Bp * (weights ? 2 : 1)));
   Eigen::Map<MatrixXd> Qa(p, Bp, D + 2);          // rows [q, 1, -|q|^2 / 2]
   Eigen::Map<VectorXd> ss(p + Bp * (D + 2), Bp);  // column sums of squares of L^-1 Kq^T
   double* KT = p + Bp * (D + 2) + Bp;             // n x Bp row-major: Kq^T, one query per column
@@ -483,6 +521,15 @@ void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
   args.xa = Xa_.data();
   args.lt = L_.data();
   args.alpha = alpha_.data();
+  if (weights) {  // n x Bp row-major: query q's weights in column q (padding columns: q = 0's)
+    double* lanes = KT + n * Bp;
+    for (Index q = 0; q < Bp; ++q) {
+      const double* w =
+          weights->col((*columns)[static_cast<std::size_t>(q < B ? q : 0)]).data();
+      for (Index i = 0; i < n; ++i) lanes[i * Bp + q] = w[i];
+    }
+    args.alpha_lanes = lanes;
+  }
   args.n = n;
   args.d2 = D + 2;
   args.qa = Qa.data();

@@ -16,6 +16,9 @@ struct PredictArgs {
   const double* lt;  ///< n x n column-major: column i = row i of the Cholesky factor L (i entries)
                      ///< followed by L(i, i) at index i
   const double* alpha;  ///< n: K^-1 y
+  /// nullptr (every query uses alpha), or n x bp row-major: query c's own weights at column c
+  /// (another right-hand side K^-1 y' on the same factorisation; padding columns are read)
+  const double* alpha_lanes = nullptr;
   std::ptrdiff_t n;     ///< training points, >= 1
   std::ptrdiff_t d2;    ///< D + 2
   const double* qa;     ///< bp x d2 column-major (leading dimension bp): rows [q, 1, -|q|^2 / 2]
@@ -28,7 +31,7 @@ struct PredictArgs {
 };
 
 /// For the first args.used queries: k* = sf2 exp(min(xa qa^T, 0)) (squared-exponential kernel
-/// with the query), mean = k*^T alpha, forward substitution L v = k* and ss = |v|^2.
+/// with the query), mean = k*^T alpha (or k*^T of the query's column of alpha_lanes), forward substitution L v = k* and ss = |v|^2.
 /// Queries are processed in packs of 8, 4 and 2 lanes (the rest after the packs of 8 padded to a
 /// pack of 8 where that costs no more registers); every lane performs the same operations in
 /// the same order in every pack width, so a query's results do not depend on the batch it came in

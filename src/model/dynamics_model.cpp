@@ -3,7 +3,9 @@
 // SimulatorModel (simulator_model.cpp).
 #include "drops/model/dynamics_model.hpp"
 
+#include <algorithm>
 #include <sstream>
+#include <string>
 
 #include "drops/core/errors.hpp"
 #include "drops/model/gp_dynamics.hpp"
@@ -29,6 +31,26 @@ bool ModelOptions::IsValid(std::string* why) const {
   }
   if (!gp_mi.IsValid(why)) return false;
   return mi.IsValid(why);
+}
+
+PhiSampling DynamicsModel::draw_phi_samples(int count, std::uint64_t /*seed*/) {
+  if (count < 1)
+    throw InvalidArgument("draw_phi_samples: count must be >= 1, got " + std::to_string(count));
+  return {};
+}
+
+void DynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U,
+                                          const std::vector<int>& sample, MatrixXd& mean,
+                                          MatrixXd& var) const {
+  check_size("predict_batch_sampled: sample (one per row of X)", X.rows(),
+             static_cast<Eigen::Index>(sample.size()));
+  const int samples = std::max(1, phi_samples());
+  for (const int s : sample) {
+    if (s < 0 || s >= samples)
+      throw InvalidArgument("predict_batch_sampled: sample " + std::to_string(s) +
+                            " out of range [0, " + std::to_string(samples) + ")");
+  }
+  predict_batch(X, U, mean, var);
 }
 
 std::string to_string(ModelType type) {

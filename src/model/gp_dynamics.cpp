@@ -1,9 +1,13 @@
 #include "drops/model/gp_dynamics.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
 #include "drops/core/errors.hpp"
+#include "drops/core/rng.hpp"
 #include "drops/model/dataset.hpp"
 #include "drops/model/gp_mi.hpp"
 
@@ -65,6 +69,8 @@ void GpDynamicsModel::restore(const ModelState& st) {
   for (std::size_t i = 0; i < gps.size(); ++i) gps[i].set_h_params(st.h_params[i]);
   gps_ = std::move(gps);
   phi_ = st.phi;
+  clear_samples();
+  posterior_ = PhiPosterior{};
   if (prior_) params_.values = phi_;
 }
 
@@ -98,10 +104,140 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
+  clear_samples();
+  posterior_ = s.phi_posterior;
+  if (options_.gp_mi.rollout_phi == RolloutPhi::kPosterior) {  // kept for draw_phi_samples
+    data_x_ = d.x;
+    data_u_ = d.u;
+    data_dx_ = d.dx;
+  }
   s.score = gp_mi_score(s.log_likelihoods, options_.gp_mi.score);
   s.phi = phi_;
   s.seconds = seconds_since(t0);
   return s;
+}
+
+void GpDynamicsModel::clear_samples() {
+  sample_phi_.clear();
+  sample_weights_.clear();
+}
+
+PhiSampling GpDynamicsModel::draw_phi_samples(int count, std::uint64_t seed) {
+  if (count < 1)
+    throw InvalidArgument("draw_phi_samples: count must be >= 1, got " + std::to_string(count));
+  clear_samples();
+  PhiSampling out;
+  const auto K = static_cast<Eigen::Index>(posterior_.names.size());
+  if (options_.type != ModelType::kGpMi || options_.gp_mi.rollout_phi != RolloutPhi::kPosterior ||
+      K == 0 || !posterior_.covariance.allFinite() || data_x_.rows() != gps_.front().size())
+    return out;
+  // The continuous tunable entries, in the posterior's order (phi_posterior).
+  std::vector<Eigen::Index> at, bound;
+  for (std::size_t k = 0; k < params_.tunable.size(); ++k) {
+    if (!params_.choices[k].empty()) continue;
+    at.push_back(params_.tunable[k]);
+    bound.push_back(static_cast<Eigen::Index>(k));
+  }
+  check_size("draw_phi_samples: posterior dimension", static_cast<long>(at.size()), K);
+  // Symmetric square root of the covariance (semi-definite: negative round-off set to 0).
+  const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(posterior_.covariance);
+  const MatrixXd C = eig.eigenvectors() *
+                     eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+                     eig.eigenvectors().transpose();
+  Rng rng(seed);
+  const Eigen::Index N = data_x_.rows();
+  sample_weights_.assign(gps_.size(), MatrixXd(N, count));
+  MatrixXd M;
+  VectorXd z(K);
+  for (int s = 0; s < count; ++s) {
+    for (Eigen::Index k = 0; k < K; ++k) z[k] = rng.normal();
+    const VectorXd draw = posterior_.mean + C * z;
+    VectorXd phi = phi_;
+    bool clamped = false;
+    for (Eigen::Index k = 0; k < K; ++k) {
+      const double lo = params_.lower[bound[static_cast<std::size_t>(k)]];
+      const double hi = params_.upper[bound[static_cast<std::size_t>(k)]];
+      const double v = std::clamp(draw[k], lo, hi);
+      clamped = clamped || v != draw[k];
+      phi[at[static_cast<std::size_t>(k)]] = v;
+    }
+    out.clamped += clamped ? 1 : 0;
+    bool ok = true;
+    try {
+      prior_->check_phi(phi);
+      prior_->evaluate_batch(data_x_, data_u_, phi, M);
+      ok = M.allFinite();
+    } catch (const InvalidArgument&) {
+      ok = false;
+    }
+    if (!ok) {
+      ++out.rejected;
+      phi = phi_;
+      prior_->evaluate_batch(data_x_, data_u_, phi, M);
+    }
+    for (std::size_t i = 0; i < gps_.size(); ++i) {
+      const auto col = static_cast<Eigen::Index>(i);
+      sample_weights_[i].col(s) = gps_[i].solve(data_dx_.col(col) - M.col(col));
+    }
+    sample_phi_.push_back(phi);
+  }
+  out.samples = count;
+  return out;
+}
+
+void GpDynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U,
+                                            const std::vector<int>& sample, MatrixXd& mean,
+                                            MatrixXd& var) const {
+  if (sample_phi_.empty()) {
+    DynamicsModel::predict_batch_sampled(X, U, sample, mean, var);
+    return;
+  }
+  const Eigen::Index B = X.rows();
+  check_size("predict_batch_sampled: sample (one per row of X)", B,
+             static_cast<Eigen::Index>(sample.size()));
+  const int S = phi_samples();
+  for (const int s : sample) {
+    if (s < 0 || s >= S)
+      throw InvalidArgument("predict_batch_sampled: sample " + std::to_string(s) +
+                            " out of range [0, " + std::to_string(S) + ")");
+  }
+  thread_local MatrixXd in, obs, Xs, Us, Ms;
+  thread_local VectorXd m, v;
+  in.resize(B, O_ + U_);
+  task_->observe_batch(X, obs);
+  in.leftCols(O_) = obs;
+  in.rightCols(U_) = U;
+  // The simulator: one evaluate_batch per sample present, on its rows.
+  mean.resize(B, E_);
+  thread_local std::vector<char> done;
+  thread_local std::vector<Eigen::Index> rows;
+  done.assign(static_cast<std::size_t>(B), 0);
+  for (Eigen::Index b = 0; b < B; ++b) {
+    if (done[static_cast<std::size_t>(b)]) continue;
+    const int s = sample[static_cast<std::size_t>(b)];
+    rows.clear();
+    for (Eigen::Index c = b; c < B; ++c) {
+      if (sample[static_cast<std::size_t>(c)] != s) continue;
+      rows.push_back(c);
+      done[static_cast<std::size_t>(c)] = 1;
+    }
+    const auto R = static_cast<Eigen::Index>(rows.size());
+    Xs.resize(R, X.cols());
+    Us.resize(R, U.cols());
+    for (Eigen::Index r = 0; r < R; ++r) {
+      Xs.row(r) = X.row(rows[static_cast<std::size_t>(r)]);
+      Us.row(r) = U.row(rows[static_cast<std::size_t>(r)]);
+    }
+    prior_->evaluate_batch(Xs, Us, sample_phi_[static_cast<std::size_t>(s)], Ms);
+    for (Eigen::Index r = 0; r < R; ++r) mean.row(rows[static_cast<std::size_t>(r)]) = Ms.row(r);
+  }
+  var.resize(B, E_);
+  for (int i = 0; i < E_; ++i) {
+    gps_[static_cast<std::size_t>(i)].predict_batch(in, sample_weights_[static_cast<std::size_t>(i)],
+                                                    sample, m, v);
+    mean.col(i) += m;
+    var.col(i) = v;
+  }
 }
 
 void GpDynamicsModel::predict(const VectorXd& x, const VectorXd& u, Prediction& out) const {

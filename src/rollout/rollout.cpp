@@ -92,6 +92,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
   const std::size_t lanes = K * R;
   const std::size_t B = static_cast<std::size_t>(options.batch);
   const std::size_t chunks = (lanes + B - 1) / B;
+  const int samples = model.phi_samples();
   std::vector<double> lane_return(lanes, 0.0);
   std::vector<long> chunk_bad(chunks, 0), chunk_absorbed(chunks, 0);
   parallel_for(chunks, [&](std::size_t c) {
@@ -107,6 +108,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       rngs.emplace_back(derive_seed(seeds[k], {r}));
     }
     MatrixXd X(n, E), Uc, mean, var, Xa, Obs, Xn;
+    std::vector<int> sample;
     VectorXd rewards;
     const VectorXd x0 = task.initial_state();
     for (Eigen::Index b = 0; b < n; ++b) X.row(b) = x0.transpose();
@@ -130,7 +132,16 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
         pols[static_cast<std::size_t>(running[static_cast<std::size_t>(j)])]->act(obs, t * dt, u);
         Uc.row(j) = u.transpose();
       }
-      model.predict_batch(Xb, Uc, mean, var);
+      if (samples > 0) {  // rollout r of every policy under the model's phi sample r mod S
+        sample.resize(static_cast<std::size_t>(m));
+        for (Eigen::Index j = 0; j < m; ++j) {
+          const std::size_t lane = begin + static_cast<std::size_t>(running[static_cast<std::size_t>(j)]);
+          sample[static_cast<std::size_t>(j)] = static_cast<int>(lane % R % static_cast<std::size_t>(samples));
+        }
+        model.predict_batch_sampled(Xb, Uc, sample, mean, var);
+      } else {
+        model.predict_batch(Xb, Uc, mean, var);
+      }
       // The next states of the lanes (in order, so each lane's draws are its own), then the
       // rewards of the finite ones in one call.
       std::vector<Eigen::Index> finite;

@@ -164,6 +164,23 @@ class Gp {
   void predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
                      Eigen::VectorXd& variance) const;
 
+  /// Batched prediction in which query q's mean uses its own weights: mean_q = k*_q^T
+  /// weights.col(columns[q]) instead of k*_q^T alpha, the variance as predict_batch (it does not
+  /// depend on the targets). weights: N x S, typically columns of solve(y') for other targets y'
+  /// on the same inputs and kernel (the GP of those targets, without refactorising); columns: B
+  /// entries in [0, S). A query's mean with a column equal to alpha() is the same bits as
+  /// predict_batch's. Throws InvalidArgument on Xq.cols() != D, weights.rows() != N, or
+  /// columns of the wrong size or out of range. Thread-safe; the SIMD kernels of predict_batch
+  /// (squared-exponential ARD), Eigen otherwise.
+  void predict_batch(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd& weights,
+                     const std::vector<int>& columns, Eigen::VectorXd& mean,
+                     Eigen::VectorXd& variance) const;
+
+  /// K^-1 y (dim N) for targets y (dim N) on the current factorisation, by the same two
+  /// triangular solves as alpha (so solve(y) of the GP's own targets is alpha(), bit for bit).
+  /// O(N^2). Throws InvalidArgument on size mismatch. Thread-safe (const).
+  Eigen::VectorXd solve(const Eigen::VectorXd& y) const;
+
   /// alpha = K^-1 y (dim N).
   const Eigen::VectorXd& alpha() const;
 
@@ -205,6 +222,10 @@ class Gp {
   void apply_h(const Eigen::VectorXd& h);
   // Points se_ at kernel_ when it is SE-ARD.
   void bind_kernel();
+  // Both predict_batch overloads: weights and columns null (alpha for every query) or both set.
+  void predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
+                    const std::vector<int>* columns, Eigen::VectorXd& mean,
+                    Eigen::VectorXd& variance) const;
 };
 
 }  // namespace drops::gp

@@ -6,6 +6,7 @@
 ///            (paper Algorithm 2), kernels refit at phi*;
 ///   mi       Black-DROPS with MI: phi by one-step mean squared error, deterministic simulator.
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -49,6 +50,13 @@ struct ModelOptions {
   bool IsValid(std::string* why) const;
 };
 
+/// What DynamicsModel::draw_phi_samples did.
+struct PhiSampling {
+  int samples = 0;   ///< phi samples the rollouts use (0: every rollout uses phi())
+  int clamped = 0;   ///< draws with an entry outside its search interval, clamped onto it
+  int rejected = 0;  ///< draws the prior rejected (MeanFunction::check_phi), replaced by phi()
+};
+
 /// What learn() did.
 struct ModelSummary {
   int points = 0;                ///< transitions used
@@ -63,6 +71,9 @@ struct ModelSummary {
   /// gp_mi with continuous tunable parameters: how sure the model is of them (phi_posterior, at
   /// the final fit); empty otherwise.
   PhiPosterior phi_posterior;
+  /// The phi samples of the rollouts (GpMiOptions::rollout_phi); set by the algorithm from
+  /// draw_phi_samples after learn().
+  PhiSampling phi_sampling;
   double seconds = 0;            ///< wall-clock time of learn()
   std::string BriefReport() const;
 };
@@ -88,6 +99,21 @@ class DynamicsModel {
   /// Batched predict. X: B x E raw states, U: B x U actions; mean, var resized to B x E.
   virtual void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
                              MatrixXd& var) const = 0;
+  /// Draws the phi samples that rollouts use when the model's options ask for them
+  /// (GpMiOptions::rollout_phi = kPosterior, a model with a posterior over phi after learn()):
+  /// `count` (>= 1) draws from one random stream seeded by seed. A model without samples (the
+  /// default implementation, every variant but gp_mi with a continuous tunable phi, or
+  /// rollout_phi = kPoint) draws none and returns samples = 0. Call after learn(); the next
+  /// learn() or restore() discards them. Throws InvalidArgument when count < 1. Not thread-safe.
+  virtual PhiSampling draw_phi_samples(int count, std::uint64_t seed);
+  /// Samples drawn by the last draw_phi_samples (0: none; rollouts then use predict_batch).
+  virtual int phi_samples() const { return 0; }
+  /// predict_batch with row b under phi sample sample[b] (in [0, phi_samples())). The default
+  /// (no samples) is predict_batch. Throws InvalidArgument when sample has not one entry per row
+  /// or an entry is out of range. Thread-safe after draw_phi_samples.
+  virtual void predict_batch_sampled(const MatrixXd& X, const MatrixXd& U,
+                                     const std::vector<int>& sample, MatrixXd& mean,
+                                     MatrixXd& var) const;
   /// Current full prior parameters phi (dim P; empty for gp).
   virtual VectorXd phi() const = 0;
   /// The warm-start state (see ModelState). Not thread-safe with learn().

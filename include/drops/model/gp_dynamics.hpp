@@ -34,6 +34,22 @@ class GpDynamicsModel final : public DynamicsModel {
   void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override;
   void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
                      MatrixXd& var) const override;
+  /// gp_mi with GpMiOptions::rollout_phi = kPosterior and a posterior over phi from the last
+  /// learn() (finite covariance): `count` draws phi_s = phi* + C z, z ~ N(0, I) from the stream
+  /// Rng(seed), C C^T the posterior covariance (symmetric square root, negative eigenvalues at
+  /// 0), each entry clamped onto its search interval (counted), a draw check_phi rejects or on
+  /// which the simulator gives a non-finite output on the data replaced by phi* (counted); then
+  /// per draw and output the GP weights K^-1 (dx - M(X; phi_s)) on the same factorisation.
+  /// Otherwise none (samples = 0). Cost: count x (N simulator calls + E O(N^2) solves).
+  PhiSampling draw_phi_samples(int count, std::uint64_t seed) override;
+  int phi_samples() const override { return static_cast<int>(sample_phi_.size()); }
+  /// Row b: the simulator at sample sample[b]'s phi (one evaluate_batch per sample present) plus the output GPs
+  /// with that sample's weights (gp::Gp::predict_batch with weights); variances as predict_batch.
+  /// A sample equal to phi* predicts what predict_batch does.
+  void predict_batch_sampled(const MatrixXd& X, const MatrixXd& U, const std::vector<int>& sample,
+                             MatrixXd& mean, MatrixXd& var) const override;
+  /// The phi of each sample drawn (full phi, dim P each).
+  const std::vector<VectorXd>& sample_phis() const { return sample_phi_; }
   /// The E output GPs (after learn(): fitted to the residuals at phi()).
   const std::vector<gp::Gp>& output_gps() const { return gps_; }
 
@@ -45,6 +61,12 @@ class GpDynamicsModel final : public DynamicsModel {
   int E_ = 0, U_ = 0, O_ = 0;
   VectorXd phi_;
   std::vector<gp::Gp> gps_;
+  // The last learn()'s data and posterior (draw_phi_samples), and the samples drawn.
+  MatrixXd data_x_, data_u_, data_dx_;
+  PhiPosterior posterior_;
+  std::vector<VectorXd> sample_phi_;           // S full phi
+  std::vector<MatrixXd> sample_weights_;       // per output: N x S, K^-1 (dx - M(X; phi_s))
+  void clear_samples();
 };
 
 }  // namespace drops::model

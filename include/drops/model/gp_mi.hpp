@@ -58,6 +58,23 @@ enum class GpMiCandidateStart {
   kInitial,
 };
 
+/// Which phi the model's Monte-Carlo rollouts use (GpMiOptions::rollout_phi).
+enum class RolloutPhi {
+  /// Every rollout uses phi*, GP-MI's point estimate (the paper).
+  kPoint,
+  /// Rollout r of every policy uses sample r mod S of S draws from phi's posterior (PhiPosterior,
+  /// continuous tunable entries), drawn once per episode after learning; Black-DROPS draws S =
+  /// the most rollouts any of its evaluations uses (the search's, the re-evaluation's, the
+  /// prediction's), so every policy meets the same models (common random numbers): a search with
+  /// one rollout per policy plans on one draw (posterior sampling), and the re-evaluation and
+  /// the predicted return average over many.
+  /// Under sample s the model is the simulator at phi_s plus the output GPs conditioned on the
+  /// residuals dx - M(x, u; phi_s) of the same data (kernels as fitted at phi*): near the data
+  /// the samples agree (the GPs take up the difference), away from it they differ as the
+  /// simulators at the phi the data cannot tell apart do.
+  kPosterior,
+};
+
 /// Options of GP-MI (settings.md §4).
 struct GpMiOptions {
   GpMiSearch search = GpMiSearch::kAlternating;
@@ -90,6 +107,10 @@ struct GpMiOptions {
   /// The screen's margin in units of the score (nats), >= 0: a candidate whose screened score is
   /// more than this below the best screened score is not fitted further.
   double screen_margin = 0.0;
+  /// Which phi the rollouts on the model use: GP-MI's point estimate (the default) or draws from
+  /// its posterior (RolloutPhi). Only a continuous tunable phi has a posterior; with none, every
+  /// rollout uses the point estimate.
+  RolloutPhi rollout_phi = RolloutPhi::kPoint;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
 };
