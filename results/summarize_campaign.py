@@ -7,7 +7,10 @@ One row per run and episode, with the columns of the task's summary (summaries/p
 summaries/hexapod.csv; the campaign column is the campaign directory's name) and, for IT&E runs,
 the archive each run adapted with: archive_evaluations (config.yaml's ite.evaluations, the prior
 episodes of the MAP-Elites run that built it, also when the run read it from the archive cache),
-archive_cells and archive_coverage (summary.json "archive"). Every run must be complete.
+archive_cells and archive_coverage (summary.json "archive"); when the runs recorded it, the
+calibration of each episode a model predicted: calibration_quantile, calibration_inside_band,
+calibration_gap and calibration_replay (summary.json "calibration", docs/reports.md). Every run
+must be complete.
 Standard library only.
 """
 
@@ -19,6 +22,10 @@ import sys
 import summarize_archives as sa
 
 ARCHIVE_COLUMNS = ["archive_evaluations", "archive_cells", "archive_coverage"]
+# summary.json's "calibration" of each episode a model predicted (docs/reports.md): where the real
+# return fell among the model's Monte-Carlo rollouts of the policy; empty for the others.
+CALIBRATION_COLUMNS = ["calibration_quantile", "calibration_inside_band", "calibration_gap",
+                       "calibration_replay"]
 
 
 def ite_evaluations(run_dir):
@@ -65,6 +72,20 @@ def main():
             a = archives[r["run"]]
             r.update(archive_evaluations=a["evaluations"], archive_cells=a["cells"],
                      archive_coverage=repr(a["coverage"]))
+    calibration = {}
+    for name, run_dir in runs:
+        with open(os.path.join(run_dir, "summary.json")) as f:
+            for e in json.load(f).get("episodes", []):
+                if isinstance(e.get("calibration"), dict):
+                    calibration[name, int(e["episode"])] = e["calibration"]
+    if calibration:
+        columns = columns + CALIBRATION_COLUMNS
+        for r in rows:
+            c = calibration.get((r["run"], r["episode"]))
+            r.update(calibration_quantile=repr(c["quantile"]) if c else "",
+                     calibration_inside_band=int(c["inside_band"]) if c else "",
+                     calibration_gap=repr(c["gap"]) if c and c["gap"] is not None else "",
+                     calibration_replay=int(c["replay"]) if c else "")
     sa.write(output, columns, rows)
 
 

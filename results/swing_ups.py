@@ -8,7 +8,11 @@ summarize_campaign.py); CAMPAIGN: only the rows of that campaign. Per variant an
 the runs, how many swung up (a real return >= 14) by episode EPISODE (default 8), how many of
 those held it (never more than 2 below their best return from the swing-up on, to the last
 episode), the first swing-up episode of each run ("-" for none), and the median real return at
-episode EPISODE and at the last episode. Standard library only.
+episode EPISODE and at the last episode. When the summary has the calibration columns
+(summarize_campaign.py), a second table gives per variant and prior the episodes with a new
+policy and the replays of the best one apart: how many, the fraction whose real return fell
+inside the model's 5-95 % band, and the median gap predicted - real (drops report's numbers).
+Standard library only.
 """
 
 import csv
@@ -33,12 +37,17 @@ def main():
         raise SystemExit(2)
     campaign = args[1] if len(args) == 2 else None
     runs = defaultdict(dict)  # (variant, prior, seed) -> {episode: return}
+    calibration = defaultdict(lambda: ([], []))  # (variant, prior) -> (new policies, replays)
     with open(args[0], newline="") as f:
         for row in csv.DictReader(f):
             if campaign is not None and row["campaign"] != campaign:
                 continue
             key = (row["variant"], row["prior"], int(row["seed"]))
             runs[key][int(row["episode"])] = float(row["real_return"])
+            if row.get("calibration_gap"):
+                replay = row["calibration_replay"] == "1"
+                calibration[key[:2]][replay].append(
+                    (row["calibration_inside_band"] == "1", float(row["calibration_gap"])))
     if not runs:
         raise SystemExit(f"{args[0]}: no runs" + (f" of campaign {campaign}" if campaign else ""))
     groups = defaultdict(list)
@@ -65,6 +74,20 @@ def main():
         name = f"{PRIORS[prior]} ({prior})" if prior in PRIORS else prior
         print(f"| {variant} | {name} | {len(rs)} | {len(up)}/{len(rs)} | {len(held)}/{len(up)} | {firsts} "
               f"| {statistics.median(at):.2f} | {statistics.median(last):.2f} |")
+    if not calibration:
+        return
+    print()
+    print("| variant | prior | new policies | real return inside the 5-95 % band | median gap "
+          "(predicted - real) | replays | inside | median gap |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    for (variant, prior), (new, replays) in sorted(calibration.items(), key=lambda i: order(i[0])):
+        name = f"{PRIORS[prior]} ({prior})" if prior in PRIORS else prior
+        cells = []
+        for eps in (new, replays):
+            inside = sum(1 for i, _ in eps if i)
+            cells += [str(len(eps)), f"{100 * inside / len(eps):.0f} %" if eps else "-",
+                      f"{statistics.median(g for _, g in eps):+.2f}" if eps else "-"]
+        print(f"| {variant} | {name} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
