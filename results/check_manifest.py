@@ -45,6 +45,9 @@ SUMMARY_COLUMNS = {
     "summaries/hexapod-ite-archive-size.csv": COMMON + [
         "speed_m_s", "predicted_speed_m_s", "phi_prior", "archive_evaluations", "archive_cells",
         "archive_coverage"],
+    "summaries/pendubot-gp_mi-fresh.csv": COMMON + [
+        "phi_m1", "phi_m2", "phi_l1", "phi_l2", "phi_b1", "phi_b2", "calibration_quantile",
+        "calibration_inside_band", "calibration_gap", "calibration_replay"],
     "summaries/hexapod-ceiling.csv": [
         "campaign", "search", "task", "algorithm", "damage", "seed", "start", "sigma0",
         "episodes", "status", "best_episode", "best_return", "best_speed_m_s", "max_speed_m_s",
@@ -55,7 +58,8 @@ NUMBERS = {"seed", "episode", "interaction_time_s", "real_return", "predicted_re
            "phi_m1", "phi_m2", "phi_l1", "phi_l2", "phi_b1", "phi_b2", "speed_m_s",
            "predicted_speed_m_s", "sigma0", "episodes", "best_episode", "best_return",
            "best_speed_m_s", "max_speed_m_s", "archive_evaluations", "archive_cells",
-           "archive_coverage"}
+           "archive_coverage", "calibration_quantile", "calibration_inside_band",
+           "calibration_gap", "calibration_replay"}
 REQUIRED = {"campaign", "run", "search", "task", "algorithm", "variant", "seed", "episode",
             "interaction_time_s", "real_return", "solved", "best_return", "best_speed_m_s",
             "best_theta"}

@@ -7,6 +7,9 @@ writes to docs/results/ (or DIR):
 
   pendubot-returns.png              results/summaries/pendubot.csv: the real return per episode of
                                     the 7 algorithms, one panel per starting prior (A-D)
+  pendubot-gp_mi-fresh-returns.png  results/summaries/pendubot-gp_mi-fresh.csv: GP-MI on the fresh
+                                    seeds 101-120 (configs/campaign-pendubot-gp_mi-fresh.yaml), every
+                                    run and the median, one panel per prior
   hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
                                     walking speed per episode of gp_mi, gp_prior (the runs of
                                     configs/campaign-hexapod.yaml) and IT&E, seeds 1-5, intact and
@@ -148,6 +151,36 @@ def pendubot_returns(output):
            os.path.join(output, "pendubot-returns.png"), 4)
 
 
+def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
+    rows = read(name)
+    seeds = sorted({int(r["seed"]) for r in rows})
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.2), sharey=True)
+    axes = axes.ravel()
+    for i, (prior, title) in enumerate(PENDUBOT_PANELS):
+        ax = axes[i]
+        sel = [r for r in rows if r["prior"] == prior]
+        for k, run in enumerate(sorted({r["run"] for r in sel})):
+            mine = sorted((r for r in sel if r["run"] == run), key=lambda r: int(r["episode"]))
+            ax.plot([float(r["interaction_time_s"]) for r in mine],
+                    [float(r["real_return"]) for r in mine], "-", color="gray", alpha=0.35,
+                    linewidth=0.9, zorder=1, label="one run" if k == 0 else None)
+        draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
+                   "Black-DROPS with GP-MI: median, 25–75 %", 4)
+        ax.axhline(14, color="black", linestyle=":", linewidth=1.2,
+                   label="swing-up (return ≥ 14)")
+        ax.axvline(20, color="black", linestyle="--", linewidth=0.8, alpha=0.6,
+                   label="episode 8 (20 s)")
+        ax.set_title(title, loc="left")
+        ax.set_xlabel("interaction time (s)")
+        ax.set_xlim(0, max(float(r["interaction_time_s"]) for r in rows) + 1)
+        if i % 2 == 0:
+            ax.set_ylabel("return")
+    finish(fig, axes, f"Pendubot, Black-DROPS with GP-MI on fresh seeds {seeds[0]}–{seeds[-1]} "
+           f"({len(seeds)} runs per prior; the defaults were chosen on seeds 1–10):\nreturn on "
+           "the real system per episode",
+           os.path.join(output, name.replace(".csv", "-returns.png")), 3)
+
+
 def hexapod_speed(output):
     rows = [r for r in read("hexapod.csv") if int(r["seed"]) <= 5]
     ceilings = read("hexapod-ceiling.csv")
@@ -251,6 +284,7 @@ def main():
     args = parser.parse_args()
     os.makedirs(args.output, exist_ok=True)
     pendubot_returns(args.output)
+    pendubot_gp_mi_fresh(args.output)
     hexapod_speed(args.output)
     hexapod_20_seeds(args.output)
     hexapod_ite_archive_size(args.output)
