@@ -911,6 +911,29 @@ TEST(GpMi, ThePointEstimateDrawsNoSamples) {
                InvalidArgument);
 }
 
+// rollout_phi: posterior needs a continuous tunable phi: a prior that tunes only discrete entries
+// (or nothing) is refused when the model is made, with the key's name; gp_prior ignores the key.
+TEST(GpMi, PosteriorRolloutsWithoutAContinuousPhiAreRefused) {
+  model::ModelOptions o = PosteriorRolloutModel::options(model::RolloutPhi::kPosterior);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  try {
+    model::GpDynamicsModel m(o, task, prior, discrete_m2_parameters());
+    FAIL() << "a discrete phi was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("model.gp_mi.rollout_phi"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("discrete"), std::string::npos) << e.what();
+  }
+  model::PriorParameters none = tunable_prior("tunable");
+  none.tunable.clear();
+  none.lower.resize(0);
+  none.upper.resize(0);
+  none.choices.clear();
+  EXPECT_THROW(model::GpDynamicsModel(o, task, prior, none), InvalidArgument);
+  o.type = model::ModelType::kGpPrior;
+  EXPECT_NO_THROW(model::GpDynamicsModel(o, task, prior, discrete_m2_parameters()));
+}
+
 // Rollout r of a policy runs under sample r mod S: with sampling of the predictive noise off, each
 // rollout's return is that of the policy on the model of its sample alone (oracle: OneSample).
 TEST(GpMi, RolloutRRunsUnderPhiSampleRModS) {

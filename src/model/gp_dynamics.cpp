@@ -50,6 +50,15 @@ GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
     prior_->check_phi(params_.values);
     phi_ = params_.values;
   }
+  if (options_.type == ModelType::kGpMi && options_.gp_mi.rollout_phi == RolloutPhi::kPosterior &&
+      std::all_of(params_.choices.begin(), params_.choices.end(),
+                  [](const std::vector<double>& c) { return !c.empty(); })) {
+    throw InvalidArgument(
+        "model.gp_mi.rollout_phi: posterior draws phi from GP-MI's posterior over its continuous "
+        "tunable parameters, and this prior tunes none (" +
+        std::string(params_.tunable.empty() ? "nothing is tunable" : "every tunable entry is discrete") +
+        "); use rollout_phi: point");
+  }
   gps_.assign(static_cast<std::size_t>(E_), gp::Gp(O_ + U_));
 }
 

@@ -18,7 +18,8 @@ class GpDynamicsModel final : public DynamicsModel {
   /// task: gives the GP input [task.observe(x), u] (dim O + U). prior and parameters: required
   /// for gp_prior and gp_mi (parameters.values is the starting phi), ignored (pass null and {})
   /// for gp. Throws InvalidArgument when options are invalid, the prior is missing or does not
-  /// fit the task, or the parameters are invalid.
+  /// fit the task, the parameters are invalid, or gp_mi is asked for rollouts over phi's
+  /// posterior (GpMiOptions::rollout_phi) without a continuous tunable parameter.
   GpDynamicsModel(const ModelOptions& options, std::shared_ptr<const Task> task,
                   std::shared_ptr<const MeanFunction> prior, const PriorParameters& parameters);
 
