@@ -504,7 +504,9 @@ void Gp::predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
   }
   const Index Bp = (B + 7) / 8 * 8;  // queries padded to a multiple of 8 (padding rows are 0)
   thread_local std::vector<double> buf;
-  double* p = scratch(buf, static_cast<std::size_t>(Bp * (D + 2) + Bp + n * Bp * (weights ? 2 : 1)));
+  // Qa, ss, KT and, with weights, the queries' own weights (n x Bp each).
+  const Index panels = weights ? 2 : 1;
+  double* p = scratch(buf, static_cast<std::size_t>(Bp * (D + 2) + Bp + panels * n * Bp));
   Eigen::Map<MatrixXd> Qa(p, Bp, D + 2);          // rows [q, 1, -|q|^2 / 2]
   Eigen::Map<VectorXd> ss(p + Bp * (D + 2), Bp);  // column sums of squares of L^-1 Kq^T
   double* KT = p + Bp * (D + 2) + Bp;             // n x Bp row-major: Kq^T, one query per column

@@ -31,7 +31,8 @@ struct PredictArgs {
 };
 
 /// For the first args.used queries: k* = sf2 exp(min(xa qa^T, 0)) (squared-exponential kernel
-/// with the query), mean = k*^T alpha (or k*^T of the query's column of alpha_lanes), forward substitution L v = k* and ss = |v|^2.
+/// with the query), mean = k*^T alpha (or k*^T the query's column of alpha_lanes), forward
+/// substitution L v = k* and ss = |v|^2.
 /// Queries are processed in packs of 8, 4 and 2 lanes (the rest after the packs of 8 padded to a
 /// pack of 8 where that costs no more registers); every lane performs the same operations in
 /// the same order in every pack width, so a query's results do not depend on the batch it came in

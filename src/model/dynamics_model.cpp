@@ -39,10 +39,8 @@ PhiSampling DynamicsModel::draw_phi_samples(int count, std::uint64_t /*seed*/) {
   return {};
 }
 
-void DynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U,
-                                          const std::vector<int>& sample, MatrixXd& mean,
-                                          MatrixXd& var) const {
-  check_size("predict_batch_sampled: sample (one per row of X)", X.rows(),
+void DynamicsModel::check_samples(Eigen::Index rows, const std::vector<int>& sample) const {
+  check_size("predict_batch_sampled: sample (one per row of X)", rows,
              static_cast<Eigen::Index>(sample.size()));
   const int samples = std::max(1, phi_samples());
   for (const int s : sample) {
@@ -50,6 +48,12 @@ void DynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U,
       throw InvalidArgument("predict_batch_sampled: sample " + std::to_string(s) +
                             " out of range [0, " + std::to_string(samples) + ")");
   }
+}
+
+void DynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U,
+                                          const std::vector<int>& sample, MatrixXd& mean,
+                                          MatrixXd& var) const {
+  check_samples(X.rows(), sample);
   predict_batch(X, U, mean, var);
 }
 

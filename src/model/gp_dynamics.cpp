@@ -202,14 +202,7 @@ void GpDynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U
     return;
   }
   const Eigen::Index B = X.rows();
-  check_size("predict_batch_sampled: sample (one per row of X)", B,
-             static_cast<Eigen::Index>(sample.size()));
-  const int S = phi_samples();
-  for (const int s : sample) {
-    if (s < 0 || s >= S)
-      throw InvalidArgument("predict_batch_sampled: sample " + std::to_string(s) +
-                            " out of range [0, " + std::to_string(S) + ")");
-  }
+  check_samples(B, sample);
   thread_local MatrixXd in, obs, Xs, Us, Ms;
   thread_local VectorXd m, v;
   in.resize(B, O_ + U_);

@@ -134,9 +134,11 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       }
       if (samples > 0) {  // rollout r of every policy under the model's phi sample r mod S
         sample.resize(static_cast<std::size_t>(m));
+        const auto S = static_cast<std::size_t>(samples);
         for (Eigen::Index j = 0; j < m; ++j) {
-          const std::size_t lane = begin + static_cast<std::size_t>(running[static_cast<std::size_t>(j)]);
-          sample[static_cast<std::size_t>(j)] = static_cast<int>(lane % R % static_cast<std::size_t>(samples));
+          const auto jj = static_cast<std::size_t>(j);
+          const std::size_t lane = begin + static_cast<std::size_t>(running[jj]);
+          sample[jj] = static_cast<int>(lane % R % S);
         }
         model.predict_batch_sampled(Xb, Uc, sample, mean, var);
       } else {

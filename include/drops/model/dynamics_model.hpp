@@ -122,6 +122,11 @@ class DynamicsModel {
   /// up to that point (the next learn() starts from it). Throws InvalidArgument on mismatched sizes
   /// or non-finite values. Not thread-safe.
   virtual void restore(const ModelState& state) = 0;
+
+ protected:
+  /// predict_batch_sampled's argument check: sample has one entry per row (rows) and each is in
+  /// [0, max(1, phi_samples())). Throws InvalidArgument otherwise.
+  void check_samples(Eigen::Index rows, const std::vector<int>& sample) const;
 };
 
 /// Builds the model of options.type. task gives the GP input (observe(x) concatenated with u);

@@ -44,9 +44,11 @@ class GpDynamicsModel final : public DynamicsModel {
   /// Otherwise none (samples = 0). Cost: count x (N simulator calls + E O(N^2) solves).
   PhiSampling draw_phi_samples(int count, std::uint64_t seed) override;
   int phi_samples() const override { return static_cast<int>(sample_phi_.size()); }
-  /// Row b: the simulator at sample sample[b]'s phi (one evaluate_batch per sample present) plus the output GPs
-  /// with that sample's weights (gp::Gp::predict_batch with weights); variances as predict_batch.
-  /// A sample equal to phi* predicts what predict_batch does.
+  /// Row b: the simulator at sample sample[b]'s phi (one evaluate_batch per sample present)
+  /// plus the output GPs with that sample's weights (gp::Gp::predict_batch with weights);
+  /// variances as predict_batch. A sample equal to phi* predicts what predict_batch does.
+  /// Throws InvalidArgument as DynamicsModel::predict_batch_sampled. Thread-safe after
+  /// draw_phi_samples (per-thread buffers).
   void predict_batch_sampled(const MatrixXd& X, const MatrixXd& U, const std::vector<int>& sample,
                              MatrixXd& mean, MatrixXd& var) const override;
   /// The phi of each sample drawn (full phi, dim P each).

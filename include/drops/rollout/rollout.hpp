@@ -77,8 +77,8 @@ struct RolloutStats {
 /// (the policy gets the time t * task.dt() at step t, as in run_episode)
 /// thetas[k] (dim policy.param_dim()), using the random stream seeds[k] (rollout r uses
 /// derive_seed(seeds[k], {r}); with a model that has phi samples, DynamicsModel::phi_samples()
-/// = S > 0, rollout r runs under sample r mod S: predict_batch_sampled). Rollouts are batched (options.batch) and run in parallel; the
-/// result is independent of the thread count. Non-finite predictions stop that rollout (remaining
+/// = S > 0, rollout r runs under sample r mod S: predict_batch_sampled). Rollouts are batched
+/// (options.batch) and run in parallel; the result is independent of the thread count. Non-finite predictions stop that rollout (remaining
 /// rewards 0) and are counted in *stats; a rollout that reaches an absorbing state
 /// (Task::absorbing) stops there and gets that state's reward for every remaining step. Stopped
 /// rollouts leave the batch: the model predicts the running ones only. returns: resized to
