@@ -551,6 +551,84 @@ TEST(Gp, PredictionsWithAQuerysOwnWeightsAreThoseOfTheGpOfItsTargets) {
   }
 }
 
+// Subset-of-data variances (set_variance_points): the oracle is a GP with the same
+// hyper-parameters on the last m points alone. Its variances are the subset GP's, the full GP's
+// means are kept, no variance falls below the exact one, and with N <= m nothing changes (bits).
+// Both the SIMD kernel (SE-ARD, batch sizes around its packs) and Eigen (Matern) paths, through
+// predict, predict_batch and predict_batch with weights; the setting survives refactorisations.
+TEST(Gp, SubsetVariancesAreThoseOfTheGpOfTheLastMPointsAndMeansStayExact) {
+  Rng rng(12);
+  const int N = 70, m = 25, D = 3;
+  const MatrixXd X = RandomMatrix(rng, N, D, -2.0, 2.0);
+  const VectorXd y = RandomVector(rng, N, -1.0, 1.0);
+  Gp se(D);
+  se.set_h_params(RandomH(rng, D));
+  Gp matern(drops::gp::Matern52(1.3, 0.8, D));
+  for (Gp* base : {&se, &matern}) {
+    Gp exact = *base;
+    exact.compute(X, y);
+    Gp sub = exact;
+    sub.set_variance_points(m);
+    EXPECT_EQ(sub.variance_points(), m);
+    Gp last = *base;  // the oracle: the last m points alone
+    last.compute(X.bottomRows(m), y.tail(m));
+    double worse = 0.0;
+    for (const int B : {1, 3, 8, 13}) {
+      const MatrixXd Q = RandomMatrix(rng, B, D, -2.5, 2.5);
+      VectorXd m_sub, v_sub, m_ex, v_ex, m_last, v_last, m_w, v_w;
+      sub.predict_batch(Q, m_sub, v_sub);
+      exact.predict_batch(Q, m_ex, v_ex);
+      last.predict_batch(Q, m_last, v_last);
+      MatrixXd weights(N, 1);
+      weights.col(0) = sub.alpha();
+      sub.predict_batch(Q, weights, std::vector<int>(static_cast<std::size_t>(B), 0), m_w, v_w);
+      for (int q = 0; q < B; ++q) {
+        EXPECT_EQ(m_sub[q], m_ex[q]) << "B " << B << " query " << q;  // means: every point
+        EXPECT_NEAR(v_sub[q], v_last[q], 1e-10) << "B " << B << " query " << q;
+        EXPECT_GE(v_sub[q], v_ex[q] - 1e-12) << "B " << B << " query " << q;
+        EXPECT_EQ(v_w[q], v_sub[q]);
+        double pm = 0, pv = 0;
+        sub.predict(Q.row(q).transpose(), pm, pv);
+        EXPECT_NEAR(pm, m_ex[q], 1e-12);
+        EXPECT_NEAR(pv, v_last[q], 1e-10);
+        worse = std::max(worse, v_sub[q] - v_ex[q]);
+      }
+    }
+    EXPECT_GT(worse, 1e-3);  // the subset is not the whole: some variance must grow
+    // Refactorisations keep the subset: set_h_params, optimize_h_params, compute.
+    Gp refit = sub;
+    refit.optimize_h_params(drops::gp::RpropOptions{.max_iterations = 20});
+    Gp refit_last = *base;
+    refit_last.set_h_params(refit.h_params());
+    refit_last.compute(X.bottomRows(m), y.tail(m));
+    const MatrixXd Q = RandomMatrix(rng, 9, D, -2.0, 2.0);
+    VectorXd m1, v1, m2, v2;
+    refit.predict_batch(Q, m1, v1);
+    refit_last.predict_batch(Q, m2, v2);
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-10);
+    // N <= m: the exact GP, bit for bit (predict_batch and predict).
+    Gp small = *base;
+    small.set_variance_points(N);
+    small.compute(X, y);
+    VectorXd m3, v3, m4, v4;
+    small.predict_batch(Q, m3, v3);
+    exact.predict_batch(Q, m4, v4);
+    EXPECT_EQ(m3, m4);
+    EXPECT_EQ(v3, v4);
+    double a = 0, b = 0, c = 0, d = 0;
+    small.predict(Q.row(0).transpose(), a, b);
+    exact.predict(Q.row(0).transpose(), c, d);
+    EXPECT_EQ(a, c);
+    EXPECT_EQ(b, d);
+    // Back to every point.
+    sub.set_variance_points(0);
+    VectorXd m5, v5;
+    sub.predict_batch(Q, m5, v5);
+    EXPECT_EQ(v5, v4);
+  }
+  EXPECT_THROW(se.set_variance_points(-1), drops::InvalidArgument);
+}
+
 // 7. N = 0 predicts the prior.
 TEST(Gp, EmptyGpPredictsPrior) {
   Gp gp(3);

@@ -175,7 +175,9 @@ Gp::Gp(const Gp& o)
       Kf_(o.Kf_),
       L_(o.L_),
       alpha_(o.alpha_),
-      jitter_(o.jitter_) {
+      jitter_(o.jitter_),
+      variance_points_(o.variance_points_),
+      Lv_(o.Lv_) {
   bind_kernel();
 }
 
@@ -215,7 +217,7 @@ void Gp::set_h_params(const Eigen::VectorXd& h) {
   apply_h(h);
 }
 
-void Gp::apply_h(const Eigen::VectorXd& h) {
+void Gp::apply_h(const Eigen::VectorXd& h, bool subset) {
   const Index K = h.size() - 1;
   std::unique_ptr<Kernel> k = kernel_->clone();
   k->set_h_params(h.head(K));
@@ -225,7 +227,7 @@ void Gp::apply_h(const Eigen::VectorXd& h) {
     bind_kernel();
     log_sigma_n_ = log_sn;
   } else {
-    factorise(std::move(k), log_sn, X_, y_);  // throws with the GP unchanged
+    factorise(std::move(k), log_sn, X_, y_, subset);  // throws with the GP unchanged
   }
   // h itself, not log(exp(h)): set_h_params(h_params()) must restore the GP bit for bit (resume).
   h_ = h;
@@ -247,7 +249,7 @@ void Gp::compute(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
 }
 
 void Gp::factorise(std::unique_ptr<Kernel> kernel_ptr, double log_sigma_n,
-                   const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
+                   const Eigen::MatrixXd& X, const Eigen::VectorXd& y, bool subset) {
   const Kernel& kernel = *kernel_ptr;
   const auto* se = dynamic_cast<const SquaredExpArd*>(&kernel);
   const Index n = X.rows();
@@ -310,6 +312,16 @@ void Gp::factorise(std::unique_ptr<Kernel> kernel_ptr, double log_sigma_n,
     throw NumericalError(os.str());
   }
 
+  MatrixXd Lv;
+  if (subset && variance_points_ > 0 && variance_points_ < n) {
+    try {
+      Lv = subset_factor(Kf, sn2 + jitter, variance_points_);
+    } catch (...) {
+      give(Kf, ws.kf);
+      give(L, ws.l);
+      throw;
+    }
+  }
   L.triangularView<Eigen::StrictlyUpper>() = L.transpose();  // rows of L contiguous (predict_batch)
   VectorXd alpha = y;
   if (n > 0) {
@@ -338,6 +350,43 @@ void Gp::factorise(std::unique_ptr<Kernel> kernel_ptr, double log_sigma_n,
   give(L, ws.l);
   alpha_ = std::move(alpha);
   jitter_ = jitter;
+  Lv_ = std::move(Lv);
+}
+
+Eigen::MatrixXd Gp::subset_factor(const Eigen::MatrixXd& Kf, double diagonal, int m) {
+  const Index n = Kf.rows();
+  if (m <= 0 || m >= n) return MatrixXd();
+  MatrixXd Lv = Kf.bottomRightCorner(m, m);
+  Lv.diagonal().array() += diagonal;
+  Eigen::LLT<Eigen::Ref<MatrixXd>, Eigen::Lower> llt(Lv);
+  if (llt.info() != Eigen::Success || !Lv.diagonal().allFinite() ||
+      !(Lv.diagonal().array() > 0.0).all()) {
+    std::ostringstream os;
+    os << "Gp: Cholesky factorisation of the last " << m << " of " << n
+       << " points' K + sigma_n^2 I (set_variance_points) failed although the whole K's succeeded";
+    throw NumericalError(os.str());
+  }
+  Lv.triangularView<Eigen::StrictlyUpper>() = Lv.transpose();
+  return Lv;
+}
+
+void Gp::set_variance_points(int m) {
+  if (m < 0) {
+    throw InvalidArgument("Gp::set_variance_points: expected m >= 0 (0: every point), got " +
+                          std::to_string(m));
+  }
+  MatrixXd Lv = subset_factor(Kf_, noise_variance() + jitter_, m);  // throws with the GP unchanged
+  variance_points_ = m;
+  Lv_ = std::move(Lv);
+}
+
+const Eigen::MatrixXd& Gp::variance_factor(Index* first) const {
+  if (Lv_.rows() > 0) {
+    *first = L_.rows() - Lv_.rows();
+    return Lv_;
+  }
+  *first = 0;
+  return L_;
 }
 
 void Gp::set_targets(const Eigen::VectorXd& y) {
@@ -424,8 +473,11 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
   if (!se_) {
     VectorXd k = kernel_->gram((x.transpose() - X_mean_), X_.rowwise() - X_mean_).transpose();
     mean = k.dot(alpha_);
-    L_.triangularView<Eigen::Lower>().solveInPlace(k);
-    variance = std::max(0.0, sf2 - k.squaredNorm());
+    Index first = 0;
+    const MatrixXd& Lv = variance_factor(&first);
+    auto kv = k.tail(n - first);
+    Lv.triangularView<Eigen::Lower>().solveInPlace(kv);
+    variance = std::max(0.0, sf2 - kv.squaredNorm());
     return;
   }
   thread_local std::vector<double> buf;
@@ -438,8 +490,11 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
   k.noalias() = Xa_ * qa;  // -1/2 squared scaled distances
   k = k.array().min(0.0).exp() * sf2;
   mean = k.dot(alpha_);
-  L_.triangularView<Eigen::Lower>().solveInPlace(k);
-  variance = std::max(0.0, sf2 - k.squaredNorm());
+  Index first = 0;
+  const MatrixXd& Lv = variance_factor(&first);
+  auto kv = k.tail(n - first);
+  Lv.triangularView<Eigen::Lower>().solveInPlace(kv);
+  variance = std::max(0.0, sf2 - kv.squaredNorm());
 }
 
 void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
@@ -498,8 +553,11 @@ void Gp::predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
     } else {
       mean = KT.transpose() * alpha_;
     }
-    L_.triangularView<Eigen::Lower>().solveInPlace(KT);
-    variance = (sf2 - KT.colwise().squaredNorm().transpose().array()).max(0.0).matrix();
+    Index first = 0;
+    const MatrixXd& Lv = variance_factor(&first);
+    auto KTv = KT.bottomRows(n - first);
+    Lv.triangularView<Eigen::Lower>().solveInPlace(KTv);
+    variance = (sf2 - KTv.colwise().squaredNorm().transpose().array()).max(0.0).matrix();
     return;
   }
   const Index Bp = (B + 7) / 8 * 8;  // queries padded to a multiple of 8 (padding rows are 0)
@@ -531,6 +589,13 @@ void Gp::predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
       for (Index i = 0; i < n; ++i) lanes[i * Bp + q] = w[i];
     }
     args.alpha_lanes = lanes;
+  }
+  Index first = 0;
+  const MatrixXd& Lv = variance_factor(&first);
+  if (first > 0) {
+    args.lv = Lv.data();
+    args.var_first = first;
+    args.nv = n - first;
   }
   args.n = n;
   args.d2 = D + 2;

@@ -28,11 +28,17 @@ struct PredictArgs {
   double* v;            ///< n x bp row-major scratch (overwritten: L^-1 k*, one query per column)
   double* mean;         ///< used: posterior means k*^T alpha
   double* ss;           ///< used: |L^-1 k*|^2 (the variance is sf2 - ss)
+  /// nullptr (variances from every point, with lt), or the nv x nv factor of the last nv
+  /// training points (rows var_first .. n - 1, var_first = n - nv), laid out as lt: ss is then
+  /// |Lv^-1 k*_v|^2 (subset-of-data variance; Gp::set_variance_points)
+  const double* lv = nullptr;
+  std::ptrdiff_t var_first = 0;
+  std::ptrdiff_t nv = 0;
 };
 
 /// For the first args.used queries: k* = sf2 exp(min(xa qa^T, 0)) (squared-exponential kernel
 /// with the query), mean = k*^T alpha (or k*^T the query's column of alpha_lanes), forward
-/// substitution L v = k* and ss = |v|^2.
+/// substitution L v = k* and ss = |v|^2 (with lv: Lv v = the last nv entries of k*).
 /// Queries are processed in packs of 8, 4 and 2 lanes (the rest after the packs of 8 padded to a
 /// pack of 8 where that costs no more registers); every lane performs the same operations in
 /// the same order in every pack width, so a query's results do not depend on the batch it came in

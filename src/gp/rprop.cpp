@@ -227,7 +227,7 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* stat
     double f = 0.0;
     bool ok = true;
     try {
-      apply_h(h);
+      apply_h(h, /*subset=*/false);  // the subset's factor once, for the iterate kept
       f = objective(h, g);
       ok = std::isfinite(f) && g.allFinite();
     } catch (const NumericalError&) {
@@ -268,7 +268,9 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* stat
     state->best_f = best_f;
     state->best_history = best_history;
   }
-  apply_h(best_h);  // keep the best iterate (it factorised before, so this succeeds)
+  // Keep the best iterate (it factorised before, so this succeeds; so does its variance subset's
+  // factor, a principal block of the same positive definite matrix, barring round-off).
+  apply_h(best_h);
   summary.final_log_likelihood = log_marginal_likelihood();
   summary.final_penalty = walls(best_h, nullptr);
   return summary;

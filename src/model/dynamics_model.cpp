@@ -30,6 +30,11 @@ bool ModelOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!gp_mi.IsValid(why)) return false;
+  if (variance_points < 0) {
+    if (why) *why = "variance_points must be >= 0 (0: every transition), got " +
+                    std::to_string(variance_points);
+    return false;
+  }
   return mi.IsValid(why);
 }
 

@@ -60,6 +60,7 @@ GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
         "); use rollout_phi: point");
   }
   gps_.assign(static_cast<std::size_t>(E_), gp::Gp(O_ + U_));
+  for (auto& g : gps_) g.set_variance_points(options_.variance_points);
 }
 
 ModelState GpDynamicsModel::state() const {

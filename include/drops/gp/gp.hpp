@@ -148,13 +148,29 @@ class Gp {
   /// iterations and initial likelihood then count from the search's start.
   RpropSummary optimize_h_params(const RpropOptions& options = {}, RpropState* state = nullptr);
 
-  /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise, clamped at >= 0)
-  /// at x (dim D; InvalidArgument otherwise). Thread-safe after compute(); per-thread scratch, no heap
+  /// Predictive variances from the last m training points only (the newest, when rows are in
+  /// the order they were recorded): the subset-of-data approximation (Rasmussen & Williams 2006,
+  /// §8.3.1) of the variance, k(x,x) - k_m*^T K_mm^-1 k_m*, never below the exact one
+  /// (conditioning on fewer observations cannot lower a Gaussian's variance); means still use
+  /// every point. The cost of a variance falls from O(N^2) to O(m^2) once N > m; for N <= m
+  /// every result is the exact GP's, bit for bit. m = 0 (the default): every point. The setting
+  /// survives compute(), set_h_params() and optimize_h_params(), which refactorise the subset
+  /// too (O(m^3 / 3) more, once per call, not per Rprop iteration). Throws InvalidArgument when
+  /// m < 0, NumericalError when the subset's factorisation fails (the GP is then unchanged). Not
+  /// thread-safe (mutates the GP).
+  void set_variance_points(int m);
+  /// The m of set_variance_points (0: every point).
+  int variance_points() const { return variance_points_; }
+
+  /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise, clamped at >= 0;
+  /// from the last variance_points() training points when N exceeds it) at x (dim D;
+  /// InvalidArgument otherwise). Thread-safe after compute(); per-thread scratch, no heap
   /// allocation in steady state.
   void predict(const Eigen::VectorXd& x, double& mean, double& variance) const;
 
   /// Batched prediction for B query points. Xq: B x D (one query per row); mean, variance: resized
-  /// to B. Equal to B calls of predict() up to round-off (~1e-12); much faster for B >= 4. Thread-safe.
+  /// to B (variances as predict(), variance_points() included). Equal to B calls of predict() up
+  /// to round-off (~1e-12); much faster for B >= 4. Thread-safe.
   /// A query's results can differ at round-off between batch sizes (Eigen sums the scaled queries'
   /// squared norms in an order that depends on B; the kernel after it does not), never between runs
   /// or thread counts for the same batches.
@@ -213,13 +229,25 @@ class Gp {
                                // (so row i of L is contiguous in column i, for predict_batch)
   Eigen::VectorXd alpha_;      // N, K^-1 y
   double jitter_ = 0.0;        // extra diagonal added to K by the last successful factorisation
+  int variance_points_ = 0;    // m of set_variance_points (0: all)
+  // m x m, laid out as L_: the Cholesky factor of the last m points' K (with the same noise and
+  // jitter) when 0 < m < N and the last factorisation made it; otherwise 0 x 0 (variances then
+  // use L_, exact: the state inside an Rprop search, between its iterations).
+  Eigen::MatrixXd Lv_;
 
   // Factorises K for (kernel, log_sigma_n, X) with the jitter retries and, on success only, commits
-  // kernel, noise, X (unless X aliases X_), X_mean_, Xa_, Kf_, L_, jitter_, y_ and alpha_. Throws NumericalError.
+  // kernel, noise, X (unless X aliases X_), X_mean_, Xa_, Kf_, L_, jitter_, y_ and alpha_, and
+  // Lv_ (made when subset is true and 0 < variance_points_ < N, emptied otherwise). Throws
+  // NumericalError.
   void factorise(std::unique_ptr<Kernel> kernel, double log_sigma_n, const Eigen::MatrixXd& X,
-                 const Eigen::VectorXd& y);
-  // Applies a log-space h (already validated) and refactorises.
-  void apply_h(const Eigen::VectorXd& h);
+                 const Eigen::VectorXd& y, bool subset = true);
+  // Applies a log-space h (already validated) and refactorises (factorise's subset).
+  void apply_h(const Eigen::VectorXd& h, bool subset = true);
+  // Lv_ for m points from Kf (N x N, noise-free) with `diagonal` (sigma_n^2 + jitter) added;
+  // 0 x 0 unless 0 < m < N. Throws NumericalError when the factorisation fails.
+  static Eigen::MatrixXd subset_factor(const Eigen::MatrixXd& Kf, double diagonal, int m);
+  // The factor and the first row of the points that variances use: (Lv_, N - m) or (L_, 0).
+  const Eigen::MatrixXd& variance_factor(Eigen::Index* first) const;
   // Points se_ at kernel_ when it is SE-ARD.
   void bind_kernel();
   // Both predict_batch overloads: weights and columns null (alpha for every query) or both set.

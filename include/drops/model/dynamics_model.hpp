@@ -46,6 +46,10 @@ struct ModelOptions {
   gp::RpropOptions rprop;  ///< final kernel fit of each output GP (warm-started across episodes)
   GpMiOptions gp_mi;
   MiOptions mi;
+  /// Output GPs (gp, gp_prior, gp_mi): predictive variances from the newest variance_points
+  /// transitions once there are more (subset of data, gp::Gp::set_variance_points: never below
+  /// the exact variance; means use every transition); 0 = every transition. >= 0.
+  int variance_points = 0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
 };
