@@ -46,9 +46,11 @@ struct ModelOptions {
   gp::RpropOptions rprop;  ///< final kernel fit of each output GP (warm-started across episodes)
   GpMiOptions gp_mi;
   MiOptions mi;
-  /// Output GPs (gp, gp_prior, gp_mi): predictive variances from the newest variance_points
-  /// transitions once there are more (subset of data, gp::Gp::set_variance_points: never below
-  /// the exact variance; means use every transition); 0 = every transition. >= 0.
+  /// Output GPs (gp, gp_prior, gp_mi): predictive variances from the last variance_points
+  /// transitions given to learn() once there are more (the newest: Black-DROPS passes them in
+  /// the order recorded). Subset of data, gp::Gp::set_variance_points: never below the exact
+  /// variance, O(m^2) instead of O(N^2) per prediction; means use every transition. 0 = every
+  /// transition. >= 0.
   int variance_points = 0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
