@@ -18,6 +18,10 @@ writes to docs/results/ (or DIR):
   hexapod-intact-20-seeds-speed.png results/summaries/hexapod.csv: gp_mi on the intact robot, the
                                     hexapod's defaults, seeds 1-20, 1-10 and 11-20 (the runs of
                                     configs/campaign-hexapod-intact.yaml)
+  hexapod-fresh-speed.png           results/summaries/hexapod-fresh.csv: gp_mi on the fresh seeds
+                                    101-110 (configs/campaign-hexapod-fresh.yaml), every run and
+                                    the median, intact and without the rear-right leg, with the
+                                    paper's speeds and the ceilings
   hexapod-ite-archive-size.png      results/summaries/hexapod-ite-archive-size.csv: IT&E's walking
                                     speed at episode 8 against its archive's size, seeds 101-104,
                                     intact and without the rear-right leg (the runs of
@@ -225,6 +229,41 @@ def hexapod_20_seeds(output):
            os.path.join(output, "hexapod-intact-20-seeds-speed.png"), 3)
 
 
+def hexapod_fresh(output, name="hexapod-fresh.csv"):
+    rows = read(name)
+    seeds = sorted({int(r["seed"]) for r in rows})
+    ceilings = read("hexapod-ceiling.csv")
+    paper = {"intact": 0.22, "leg5": 0.21}
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
+    for i, (damage, title) in enumerate(HEXAPOD_PANELS):
+        ax = axes[i]
+        sel = [r for r in rows if r["damage"] == damage]
+        for k, run in enumerate(sorted({r["run"] for r in sel})):
+            mine = sorted((r for r in sel if r["run"] == run), key=lambda r: int(r["episode"]))
+            ax.plot([float(r["interaction_time_s"]) for r in mine],
+                    [float(r["speed_m_s"]) for r in mine], "-", color="gray", alpha=0.35,
+                    linewidth=0.9, zorder=1, label="one run" if k == 0 else None)
+        draw_curve(ax, curve(sel, "speed_m_s"), COLOR["gp_mi"],
+                   "Black-DROPS with GP-MI: median, 25–75 %", 4)
+        best = max(float(c["best_speed_m_s"]) for c in ceilings if c["damage"] == damage)
+        ax.axhline(best, color="black", linestyle="--", linewidth=1.2,
+                   label="ceiling: best gait of direct search on the robot")
+        ax.axhline(paper[damage], color="#d62728", linestyle=":", linewidth=1.4,
+                   label="the paper's GP-MI at episode 8 (target)")
+        ax.axvline(32, color="black", linestyle="--", linewidth=0.8, alpha=0.6,
+                   label="episode 8 (32 s)")
+        ax.set_title(title, loc="left")
+        ax.set_xlabel("interaction time (s)")
+        ax.set_xlim(left=0)
+        if i == 0:
+            ax.set_ylabel("walking speed (m/s)")
+        ax.set_ylim(-0.12, 0.40)
+    finish(fig, axes, f"Hexapod, Black-DROPS with GP-MI on fresh seeds {seeds[0]}–{seeds[-1]} "
+           f"({len(seeds)} runs per robot; the defaults were chosen on seeds 1–10):\nwalking "
+           "speed on the \"real\" robot per episode",
+           os.path.join(output, name.replace(".csv", "-speed.png")), 3)
+
+
 def hexapod_ite_archive_size(output):
     rows = read("hexapod-ite-archive-size.csv")
     gp_mi = [r for r in read("hexapod.csv") if r["variant"] == "gp_mi" and r["episode"] == "8"]
@@ -287,6 +326,7 @@ def main():
     pendubot_gp_mi_fresh(args.output)
     hexapod_speed(args.output)
     hexapod_20_seeds(args.output)
+    hexapod_fresh(args.output)
     hexapod_ite_archive_size(args.output)
 
 

@@ -1,0 +1,103 @@
+#!/usr/bin/env python3
+"""Walking speeds of hexapod runs, per algorithm variant and damage, from a summary CSV.
+
+  speeds.py SUMMARY.csv [CAMPAIGN] [--episodes 7,8,9,10]
+
+SUMMARY.csv: a hexapod summary (results/summaries/hexapod*.csv or one made by
+summarize_campaign.py); CAMPAIGN: only the rows of that campaign. Per variant and damage it
+prints the runs and, at each episode asked for, the median walking speed over the runs with a
+percentile-bootstrap 95 % interval (the runs resampled with replacement 20,000 times from a fixed
+seed, so the same summary gives the same interval), then each run's speeds and the runs that fell
+(a `*` marks an episode in which the robot fell: a real return below -5, as a fall costs -10 per
+step left while walking returns stay within about -1 and 3). When the summary has the calibration columns, a
+second table gives per variant and damage the episodes with a new policy and the replays of the
+best one apart: how many, the fraction whose real return fell inside the model's 5-95 % band and
+the median gap predicted - real return (drops report's numbers). Standard library only.
+"""
+
+import csv
+import random
+import statistics
+import sys
+from collections import defaultdict
+
+RESAMPLES = 20000
+SEED = 1
+FALL_RETURN = -5.0
+
+
+def bootstrap_median(values, rng):
+    """Percentile-bootstrap 95 % interval of the median of values."""
+    medians = sorted(statistics.median(rng.choices(values, k=len(values)))
+                     for _ in range(RESAMPLES))
+    return medians[int(0.025 * RESAMPLES)], medians[int(0.975 * RESAMPLES) - 1]
+
+
+def main():
+    args = [a for a in sys.argv[1:] if not a.startswith("--episodes")]
+    episodes = [7, 8, 9, 10]
+    for a in sys.argv[1:]:
+        if a.startswith("--episodes"):
+            if "=" not in a:
+                raise SystemExit("speeds.py: --episodes=LIST, e.g. --episodes=4,8")
+            episodes = [int(e) for e in a.split("=", 1)[1].split(",")]
+    if not args or len(args) > 2:
+        print(__doc__, file=sys.stderr)
+        raise SystemExit(2)
+    campaign = args[1] if len(args) == 2 else None
+    runs = defaultdict(dict)  # (variant, damage, seed) -> {episode: (speed, fell)}
+    calibration = defaultdict(lambda: ([], []))  # (variant, damage) -> (new policies, replays)
+    with open(args[0], newline="") as f:
+        for row in csv.DictReader(f):
+            if campaign is not None and row["campaign"] != campaign:
+                continue
+            key = (row["variant"], row["damage"], int(row["seed"]))
+            fell = float(row["real_return"]) < FALL_RETURN
+            runs[key][int(row["episode"])] = (float(row["speed_m_s"]), fell)
+            if row.get("calibration_gap"):
+                replay = row["calibration_replay"] == "1"
+                calibration[key[:2]][replay].append(
+                    (row["calibration_inside_band"] == "1", float(row["calibration_gap"])))
+    if not runs:
+        raise SystemExit(f"{args[0]}: no runs" + (f" of campaign {campaign}" if campaign else ""))
+    groups = defaultdict(list)
+    for (variant, damage, seed), eps in sorted(runs.items()):
+        groups[(variant, damage)].append((seed, [eps[e] for e in sorted(eps)]))
+    rng = random.Random(SEED)
+    print("| variant | damage | runs | " + " | ".join(f"episode {e}" for e in episodes) + " |")
+    print("|---|---|---:|" + "---|" * len(episodes))
+    for (variant, damage), rs in sorted(groups.items()):
+        cells = []
+        for e in episodes:
+            values = [r[1][e - 1][0] for r in rs if len(r[1]) >= e]
+            if not values:
+                cells.append("-")
+                continue
+            lo, hi = bootstrap_median(values, rng)
+            cells.append(f"{statistics.median(values):.3f} [{lo:.3f}, {hi:.3f}]")
+        print(f"| {variant} | {damage} | {len(rs)} | " + " | ".join(cells) + " |")
+    print()
+    print("| variant | damage | seed | speed per episode (m/s; * = fell) | falls after episode 3 |")
+    print("|---|---|---:|---|---:|")
+    for (variant, damage), rs in sorted(groups.items()):
+        for seed, eps in rs:
+            speeds = " ".join(f"{s:.3f}" + ("*" if fell else "") for s, fell in eps)
+            falls = sum(1 for _, fell in eps[3:] if fell)
+            print(f"| {variant} | {damage} | {seed} | {speeds} | {falls} |")
+    if not calibration:
+        return
+    print()
+    print("| variant | damage | new policies | real return inside the 5-95 % band | median gap "
+          "(predicted - real) | replays | inside | median gap |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    for (variant, damage), (new, replays) in sorted(calibration.items()):
+        cells = []
+        for eps in (new, replays):
+            inside = sum(1 for i, _ in eps if i)
+            cells += [str(len(eps)), f"{100 * inside / len(eps):.0f} %" if eps else "-",
+                      f"{statistics.median(g for _, g in eps):+.3f}" if eps else "-"]
+        print(f"| {variant} | {damage} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
