@@ -92,6 +92,9 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.points = d.size();
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
 
+  // The variance subset's factors (ModelOptions::variance_points) are made once, after the
+  // final fit, for the rollouts; not at each of the many refits of the phi search.
+  for (auto& g : gps_) g.set_variance_points(0);
   // GP-MI (Algorithm 2): phi, warm-started from the previous episode's phi and kernels.
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty()) {
     const GpMiSummary mi = identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, gps_,
@@ -114,6 +117,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
+  for (auto& g : gps_) g.set_variance_points(options_.variance_points);
   clear_samples();
   posterior_ = s.phi_posterior;
   if (options_.gp_mi.rollout_phi == RolloutPhi::kPosterior) {  // kept for draw_phi_samples
