@@ -88,9 +88,26 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
                                     const ModelProgress& progress) {
   const auto t0 = Clock::now();
   ModelSummary s;
-  const Dataset d = make_dataset(data, task_.get(), E_, U_);
+  Dataset d = make_dataset(data, task_.get(), E_, U_);
   s.points = d.size();
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
+  // Variances from an evenly spaced subset (ModelOptions::variance_points): its rows go last, in
+  // order, after the others in order; gp::Gp::set_variance_points conditions on the last rows.
+  const int m = options_.variance_points;
+  if (m > 0 && d.size() > m) {
+    const std::vector<int> subset = subsample(d.size(), m);
+    std::vector<int> order;
+    order.reserve(static_cast<std::size_t>(d.size()));
+    std::size_t k = 0;
+    for (int n = 0; n < d.size(); ++n) {
+      if (k < subset.size() && subset[k] == n)
+        ++k;
+      else
+        order.push_back(n);
+    }
+    order.insert(order.end(), subset.begin(), subset.end());
+    d = d.rows(order);
+  }
 
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.

@@ -46,11 +46,12 @@ struct ModelOptions {
   gp::RpropOptions rprop;  ///< final kernel fit of each output GP (warm-started across episodes)
   GpMiOptions gp_mi;
   MiOptions mi;
-  /// Output GPs (gp, gp_prior, gp_mi): predictive variances from the last variance_points
-  /// transitions given to learn() once there are more (the newest: Black-DROPS passes them in
-  /// the order recorded). Subset of data, gp::Gp::set_variance_points: never below the exact
-  /// variance, O(m^2) instead of O(N^2) per prediction; means use every transition. 0 = every
-  /// transition. >= 0.
+  /// Output GPs (gp, gp_prior, gp_mi): once learn() has more than m = variance_points
+  /// transitions, predictive variances from an evenly spaced subset of m of them (rows
+  /// floor(k N / m), k < m: subsample), the subset of data approximation
+  /// (gp::Gp::set_variance_points; the model puts the subset last in its GPs' rows): never below
+  /// the exact variance, O(m^2) instead of O(N^2) per prediction. Means use every transition.
+  /// 0 = every transition (exact). >= 0.
   int variance_points = 0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
