@@ -148,11 +148,11 @@ class Gp {
   /// iterations and initial likelihood then count from the search's start.
   RpropSummary optimize_h_params(const RpropOptions& options = {}, RpropState* state = nullptr);
 
-  /// Predictive variances from the last m training points only (the newest, when rows are in
-  /// the order they were recorded): the subset-of-data approximation (Rasmussen & Williams 2006,
-  /// §8.3.1) of the variance, k(x,x) - k_m*^T K_mm^-1 k_m*, never below the exact one
-  /// (conditioning on fewer observations cannot lower a Gaussian's variance); means still use
-  /// every point. The cost of a variance falls from O(N^2) to O(m^2) once N > m; for N <= m
+  /// Predictive variances from the last m training points only (the caller chooses the subset
+  /// by the order of the rows it gives compute()): the subset-of-data approximation (Rasmussen &
+  /// Williams 2006, §8.3.1) of the variance, k(x,x) - k_m*^T K_mm^-1 k_m*, never below the
+  /// exact one (conditioning on fewer observations cannot lower a Gaussian's variance); means
+  /// still use every point. The cost of a variance falls from O(N^2) to O(m^2) once N > m; for N <= m
   /// every result is the exact GP's, bit for bit. m = 0 (the default): every point. The setting
   /// survives compute(), set_h_params() and optimize_h_params(), which refactorise the subset
   /// too (O(m^3 / 3) more, once per call, not per Rprop iteration). Throws InvalidArgument when
