@@ -439,8 +439,8 @@ TEST(Config, ResolvedDerivedDefaultsEqualTheSameValuesWrittenExplicitly) {
       registry(),
       "task: pendubot\noptimizer: {max_evaluations: 10000, selection: reevaluate, "
       "run_evaluations: ~, stagnation: true, tol_fun: 0.01, restart_from: mixed}\n"
-      "policy: {bound: 5, hidden_units: 10}\nmodel: {rprop: {penalty: off, "
-      "max_length_scale_ratio: 100}, gp_mi: {score: sum_likelihoods, candidate_start: "
+      "policy: {bound: 5, hidden_units: 10}\nmodel: {variance_points: 400, rprop: {penalty: "
+      "off, max_length_scale_ratio: 100}, gp_mi: {score: sum_likelihoods, candidate_start: "
       "best_so_far}}\n",
       {});
   EXPECT_EQ(now.at("optimizer.max_evaluations"), "10000");
@@ -449,6 +449,7 @@ TEST(Config, ResolvedDerivedDefaultsEqualTheSameValuesWrittenExplicitly) {
   EXPECT_EQ(now.at("model.rprop.penalty"), "off");
   EXPECT_EQ(now.at("model.gp_mi.score"), "sum_likelihoods");  // the paper's, for the pendubot
   EXPECT_EQ(now.at("model.gp_mi.candidate_start"), "best_so_far");
+  EXPECT_EQ(now.at("model.variance_points"), "400");  // the pendubot's
   std::string key;
   EXPECT_TRUE(experiment::same_settings(now, written, {}, &key)) << key;
 }
