@@ -116,6 +116,15 @@ def draw_curve(ax, points, color, label, z):
             label=label, zorder=z + 1)
 
 
+def draw_runs(ax, rows, value):
+    """Each run of rows as a thin gray line of value against the interaction time."""
+    for k, run in enumerate(sorted({r["run"] for r in rows})):
+        mine = sorted((r for r in rows if r["run"] == run), key=lambda r: int(r["episode"]))
+        ax.plot([float(r["interaction_time_s"]) for r in mine],
+                [float(r[value]) for r in mine], "-", color="gray", alpha=0.35,
+                linewidth=0.9, zorder=1, label="one run" if k == 0 else None)
+
+
 def finish(fig, axes, title, path, ncol):
     handles, labels = [], []
     for ax in axes:
@@ -163,11 +172,7 @@ def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
     for i, (prior, title) in enumerate(PENDUBOT_PANELS):
         ax = axes[i]
         sel = [r for r in rows if r["prior"] == prior]
-        for k, run in enumerate(sorted({r["run"] for r in sel})):
-            mine = sorted((r for r in sel if r["run"] == run), key=lambda r: int(r["episode"]))
-            ax.plot([float(r["interaction_time_s"]) for r in mine],
-                    [float(r["real_return"]) for r in mine], "-", color="gray", alpha=0.35,
-                    linewidth=0.9, zorder=1, label="one run" if k == 0 else None)
+        draw_runs(ax, sel, "real_return")
         draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
                    "Black-DROPS with GP-MI: median, 25–75 %", 4)
         ax.axhline(14, color="black", linestyle=":", linewidth=1.2,
@@ -238,11 +243,7 @@ def hexapod_fresh(output, name="hexapod-fresh.csv"):
     for i, (damage, title) in enumerate(HEXAPOD_PANELS):
         ax = axes[i]
         sel = [r for r in rows if r["damage"] == damage]
-        for k, run in enumerate(sorted({r["run"] for r in sel})):
-            mine = sorted((r for r in sel if r["run"] == run), key=lambda r: int(r["episode"]))
-            ax.plot([float(r["interaction_time_s"]) for r in mine],
-                    [float(r["speed_m_s"]) for r in mine], "-", color="gray", alpha=0.35,
-                    linewidth=0.9, zorder=1, label="one run" if k == 0 else None)
+        draw_runs(ax, sel, "speed_m_s")
         draw_curve(ax, curve(sel, "speed_m_s"), COLOR["gp_mi"],
                    "Black-DROPS with GP-MI: median, 25–75 %", 4)
         best = max(float(c["best_speed_m_s"]) for c in ceilings if c["damage"] == damage)

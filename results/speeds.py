@@ -21,6 +21,8 @@ import statistics
 import sys
 from collections import defaultdict
 
+import calibration as cal
+
 RESAMPLES = 20000
 SEED = 1
 FALL_RETURN = -5.0
@@ -46,7 +48,7 @@ def main():
         raise SystemExit(2)
     campaign = args[1] if len(args) == 2 else None
     runs = defaultdict(dict)  # (variant, damage, seed) -> {episode: (speed, fell)}
-    calibration = defaultdict(lambda: ([], []))  # (variant, damage) -> (new policies, replays)
+    calibration = cal.new_table()  # (variant, damage) -> (new policies, replays)
     with open(args[0], newline="") as f:
         for row in csv.DictReader(f):
             if campaign is not None and row["campaign"] != campaign:
@@ -54,10 +56,7 @@ def main():
             key = (row["variant"], row["damage"], int(row["seed"]))
             fell = float(row["real_return"]) < FALL_RETURN
             runs[key][int(row["episode"])] = (float(row["speed_m_s"]), fell)
-            if row.get("calibration_gap"):
-                replay = row["calibration_replay"] == "1"
-                calibration[key[:2]][replay].append(
-                    (row["calibration_inside_band"] == "1", float(row["calibration_gap"])))
+            cal.add(calibration, key[:2], row)
     if not runs:
         raise SystemExit(f"{args[0]}: no runs" + (f" of campaign {campaign}" if campaign else ""))
     groups = defaultdict(list)
@@ -84,20 +83,7 @@ def main():
             speeds = " ".join(f"{s:.3f}" + ("*" if fell else "") for s, fell in eps)
             falls = sum(1 for _, fell in eps[3:] if fell)
             print(f"| {variant} | {damage} | {seed} | {speeds} | {falls} |")
-    if not calibration:
-        return
-    print()
-    print("| variant | damage | new policies | real return inside the 5-95 % band | median gap "
-          "(predicted - real) | replays | inside | median gap |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|")
-    for (variant, damage), (new, replays) in sorted(calibration.items()):
-        cells = []
-        for eps in (new, replays):
-            inside = sum(1 for i, _ in eps if i)
-            cells += [str(len(eps)), f"{100 * inside / len(eps):.0f} %" if eps else "-",
-                      f"{statistics.median(g for _, g in eps):+.3f}" if eps else "-"]
-        print(f"| {variant} | {damage} | " + " | ".join(cells) + " |")
-
+    cal.print_table(calibration, "damage", digits=3)
 
 if __name__ == "__main__":
     main()

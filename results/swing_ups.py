@@ -20,6 +20,8 @@ import statistics
 import sys
 from collections import defaultdict
 
+import calibration as cal
+
 SWING_UP = 14.0  # a return that holds the pendubot upright for most of a 2.5 s episode
 HOLD_MARGIN = 2.0
 # Table I's priors in the paper's order, A-D
@@ -37,17 +39,14 @@ def main():
         raise SystemExit(2)
     campaign = args[1] if len(args) == 2 else None
     runs = defaultdict(dict)  # (variant, prior, seed) -> {episode: return}
-    calibration = defaultdict(lambda: ([], []))  # (variant, prior) -> (new policies, replays)
+    calibration = cal.new_table()  # (variant, prior) -> (new policies, replays)
     with open(args[0], newline="") as f:
         for row in csv.DictReader(f):
             if campaign is not None and row["campaign"] != campaign:
                 continue
             key = (row["variant"], row["prior"], int(row["seed"]))
             runs[key][int(row["episode"])] = float(row["real_return"])
-            if row.get("calibration_gap"):
-                replay = row["calibration_replay"] == "1"
-                calibration[key[:2]][replay].append(
-                    (row["calibration_inside_band"] == "1", float(row["calibration_gap"])))
+            cal.add(calibration, key[:2], row)
     if not runs:
         raise SystemExit(f"{args[0]}: no runs" + (f" of campaign {campaign}" if campaign else ""))
     groups = defaultdict(list)
@@ -74,21 +73,8 @@ def main():
         name = f"{PRIORS[prior]} ({prior})" if prior in PRIORS else prior
         print(f"| {variant} | {name} | {len(rs)} | {len(up)}/{len(rs)} | {len(held)}/{len(up)} | {firsts} "
               f"| {statistics.median(at):.2f} | {statistics.median(last):.2f} |")
-    if not calibration:
-        return
-    print()
-    print("| variant | prior | new policies | real return inside the 5-95 % band | median gap "
-          "(predicted - real) | replays | inside | median gap |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|")
-    for (variant, prior), (new, replays) in sorted(calibration.items(), key=lambda i: order(i[0])):
-        name = f"{PRIORS[prior]} ({prior})" if prior in PRIORS else prior
-        cells = []
-        for eps in (new, replays):
-            inside = sum(1 for i, _ in eps if i)
-            cells += [str(len(eps)), f"{100 * inside / len(eps):.0f} %" if eps else "-",
-                      f"{statistics.median(g for _, g in eps):+.2f}" if eps else "-"]
-        print(f"| {variant} | {name} | " + " | ".join(cells) + " |")
-
+    cal.print_table(calibration, "prior", order=order,
+                    name=lambda k: f"{PRIORS[k[1]]} ({k[1]})" if k[1] in PRIORS else k[1])
 
 if __name__ == "__main__":
     main()
