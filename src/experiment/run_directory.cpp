@@ -470,12 +470,17 @@ void RunDirectory::record(const algo::EpisodeRecord& rec) {
   if (const auto& ps = rec.model.phi_sampling; ps.samples > 0)
     e["phi_samples"] = {{"samples", ps.samples}, {"clamped", ps.clamped}, {"rejected", ps.rejected}};
   // Where the real return fell in the model's predictive distribution of it.
-  if (const auto c = algo::calibration(rec))
+  // The rollouts' returns are kept so that any other band can be computed from summary.json.
+  if (const auto c = algo::calibration(rec)) {
+    nlohmann::json returns = nlohmann::json::array();
+    for (const double r : rec.predicted_returns) returns.push_back(number(r));
     e["calibration"] = {{"quantile", c->quantile},
                         {"band", {c->band_low, c->band_high}},
                         {"inside_band", c->inside_band},
                         {"gap", c->gap},
-                        {"replay", rec.replay}};
+                        {"replay", rec.replay},
+                        {"predicted_returns", returns}};
+  }
   if (rec.random_policy) {
     e["policy_search"] = "random";
   } else if (!rec.policy_search.runs.empty()) {

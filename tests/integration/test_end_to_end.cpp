@@ -283,6 +283,11 @@ TEST(EndToEnd, AnEpisodeNoModelPredictedHasAnEmptyPredictedReturnThatReportAndPl
   EXPECT_NO_THROW(std::stod(rows[2][3])) << csv;
   const auto summary = read_json(run / "summary.json");
   EXPECT_TRUE(summary["episodes"][0]["predicted_return"].is_null());
+  // Episode 2's calibration keeps the rollouts' returns: their mean is the predicted return.
+  const auto& returns = summary["episodes"][1]["calibration"]["predicted_returns"];
+  ASSERT_EQ(returns.size(), 2u) << summary["episodes"][1].dump();
+  EXPECT_NEAR(0.5 * (returns[0].get<double>() + returns[1].get<double>()),
+              summary["episodes"][1]["predicted_return"].get<double>(), 1e-9);
   ASSERT_EQ(run_drops("report " + out.string() + " --no-figures -o " + (out / "report").string(),
                       &err, Stdout::kDiscard),
             0)

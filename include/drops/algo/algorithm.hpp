@@ -101,8 +101,13 @@ struct Calibration {
   /// Mid-rank quantile of the real return among the predicted returns: (number below + half the
   /// number equal) / count, in [0, 1]; 0.5 when the model is right on average.
   double quantile = 0;
-  double band_low = 0;    ///< the predicted returns' 5 % quantile (linear interpolation)
-  double band_high = 0;   ///< their 95 % quantile
+  /// The predicted returns' 5 % quantile, at the plotting position 0.05 (n + 1) between order
+  /// statistics (Hyndman & Fan 1996, definition 6): a real return drawn from the model's
+  /// predictive distribution falls inside [band_low, band_high] with probability about 0.90 for
+  /// n >= 19 rollouts (definition 7, R's default, would give 0.9 (n - 1) / (n + 1): 81 % for
+  /// n = 20).
+  double band_low = 0;
+  double band_high = 0;   ///< their 95 % quantile, at 0.95 (n + 1)
   bool inside_band = false;  ///< band_low <= real return <= band_high
   double gap = 0;         ///< predicted_return - real_return (> 0: the model was optimistic)
 };
