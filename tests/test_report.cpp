@@ -911,15 +911,17 @@ TEST(Figures, ReportSummarisesTheCalibrationOfTheModelsPredictions) {
   const fs::path runs = tmp.path() / "runs";
   fake_run(runs, "a", "gp_mi", "tunable", 1, "complete", {1, 2, 3, 4}, {false, false, false, true});
   fake_run(runs, "b", "gp_mi", "tunable", 2, "complete", {1, 2, 3}, {false, false, false});
-  // (gap, inside_band, replay) of episodes 2.. of each run; episode 1 has none (random policy).
+  // (gap, inside_band, replay) of episodes 1.. of each run; run a's episode 1 has none (a random
+  // policy), run b's was predicted by the prior alone and is counted apart.
   const std::map<std::string, std::vector<std::tuple<double, bool, bool>>> cal = {
-      {"a", {{0.5, true, false}, {2.0, false, false}, {0.1, true, true}}},
-      {"b", {{-0.3, true, false}, {1.0, false, false}}}};
+      {"a", {{0, false, false}, {0.5, true, false}, {2.0, false, false}, {0.1, true, true}}},
+      {"b", {{25.0, false, false}, {-0.3, true, false}, {1.0, false, false}}}};
   for (const auto& [name, entries] : cal) {
     auto j = nlohmann::json::parse(read(runs / name / "summary.json"));
     for (std::size_t i = 0; i < entries.size(); ++i) {
       const auto& [gap, inside, replay] = entries[i];
-      j["episodes"][i + 1]["calibration"] = {{"quantile", inside ? 0.5 : 0.0},
+      if (name == "a" && i == 0) continue;
+      j["episodes"][i]["calibration"] = {{"quantile", inside ? 0.5 : 0.0},
                                              {"band", {0.0, 1.0}},
                                              {"inside_band", inside},
                                              {"gap", gap},
@@ -936,11 +938,15 @@ TEST(Figures, ReportSummarisesTheCalibrationOfTheModelsPredictions) {
   EXPECT_EQ(g.replayed_episodes, 1);
   EXPECT_DOUBLE_EQ(g.replay_inside_band_rate, 1.0);
   EXPECT_DOUBLE_EQ(g.replay_median_gap, 0.1);
+  EXPECT_EQ(g.prior_only_episodes, 1);
+  EXPECT_DOUBLE_EQ(g.prior_only_inside_band_rate, 0.0);
+  EXPECT_DOUBLE_EQ(g.prior_only_median_gap, 25.0);
   ASSERT_TRUE(write_calibration_csv(rep, tmp.path() / "calibration.csv"));
   const std::string csv = read(tmp.path() / "calibration.csv");
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 5);  // header, 5 calibrated episodes
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 6);  // header, 6 calibrated episodes
   write_report_markdown(rep, tmp.path() / "report.md");
-  EXPECT_NE(read(tmp.path() / "report.md").find("| gp_mi | B tunable | 4 | 50 % | 0.75 | 1 | 100 % | 0.1 |"),
+  EXPECT_NE(read(tmp.path() / "report.md")
+                .find("| gp_mi | B tunable | 4 | 50 % | 0.75 | 1 | 100 % | 0.1 | 1 | 0 % | 25 |"),
             std::string::npos)
       << read(tmp.path() / "report.md");
   if (!matplotlib_available()) GTEST_SKIP() << "Debian's python3-matplotlib is not installed";

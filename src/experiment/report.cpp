@@ -136,15 +136,17 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     if (rs.empty()) continue;
     const std::string& metric = g.report.metric.name;
     std::vector<double> first_episode, first_time, final_return, final_metric;
-    std::vector<double> gaps, replay_gaps;
-    int inside = 0, replay_inside = 0;
+    std::vector<double> gaps, replay_gaps, prior_gaps;
+    int inside = 0, replay_inside = 0, prior_inside = 0;
     int max_episode = 0;
     for (const RunResult* r : rs) {
       g.run_names.push_back(r->name);
       for (const auto& e : r->episodes) {
         if (!e.has_calibration || !std::isfinite(e.gap)) continue;
-        (e.replay ? replay_gaps : gaps).push_back(e.gap);
-        (e.replay ? replay_inside : inside) += e.inside_band ? 1 : 0;
+        // Episode 1 was predicted before any real data, by the prior simulator alone.
+        const bool prior_only = e.episode == 1;
+        (prior_only ? prior_gaps : e.replay ? replay_gaps : gaps).push_back(e.gap);
+        (prior_only ? prior_inside : e.replay ? replay_inside : inside) += e.inside_band ? 1 : 0;
       }
       if (r->status == "complete")
         ++g.complete;
@@ -187,6 +189,12 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
       g.replay_inside_band_rate =
           static_cast<double>(replay_inside) / static_cast<double>(replay_gaps.size());
       g.replay_median_gap = quantile(replay_gaps, 0.5);
+    }
+    g.prior_only_episodes = static_cast<int>(prior_gaps.size());
+    if (!prior_gaps.empty()) {
+      g.prior_only_inside_band_rate =
+          static_cast<double>(prior_inside) / static_cast<double>(prior_gaps.size());
+      g.prior_only_median_gap = quantile(prior_gaps, 0.5);
     }
 
     const std::size_t nphi = g.phi_names.size();
@@ -344,9 +352,10 @@ void write_summary_csv(const CampaignReport& report, const fs::path& path) {
       "variant,prior,runs,complete,running,interrupted,failed,not_started,solved_runs,"
       "success_rate,solved_last_rate,median_first_solve_episode,median_first_solve_time_s,"
       "median_final_return,median_final_metric,metric,calibrated_episodes,inside_band_rate,"
-      "median_gap,replayed_episodes,replay_inside_band_rate,replay_median_gap\n";
+      "median_gap,replayed_episodes,replay_inside_band_rate,replay_median_gap,"
+      "prior_only_episodes,prior_only_inside_band_rate,prior_only_median_gap\n";
   for (const auto& g : report.groups)
-    t += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+    t += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                      csv_field(g.variant), csv_field(g.prior), g.runs, g.complete, g.running,
                      g.interrupted, g.failed, g.not_started, g.solved_runs, num(g.success_rate),
                      num(g.solved_last_rate), num(g.median_first_solve_episode),
@@ -354,7 +363,8 @@ void write_summary_csv(const CampaignReport& report, const fs::path& path) {
                      num(g.median_final_metric), csv_field(g.report.metric.name),
                      g.calibrated_episodes, num(g.inside_band_rate), num(g.median_gap),
                      g.replayed_episodes, num(g.replay_inside_band_rate),
-                     num(g.replay_median_gap));
+                     num(g.replay_median_gap), g.prior_only_episodes,
+                     num(g.prior_only_inside_band_rate), num(g.prior_only_median_gap));
   write_file_atomically(path, t);
 }
 
@@ -618,25 +628,29 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
   // How well the models predicted the policies they chose: the real return against the
   // predicted rollouts' returns, new policies and replays of the best one apart.
   if (std::any_of(report.groups.begin(), report.groups.end(), [](const GroupReport& g) {
-        return g.calibrated_episodes + g.replayed_episodes > 0;
+        return g.calibrated_episodes + g.replayed_episodes + g.prior_only_episodes > 0;
       })) {
     t += "\n## Calibration of the model's predictions\n\n"
          "Per episode a model predicted: whether the real return fell inside the 5–95 % band of "
          "the returns of the model's Monte-Carlo rollouts of that policy, and the gap predicted − "
-         "real (> 0: optimistic). New policies and replays of the best policy already run are "
-         "counted apart; a calibrated model has about 90 % inside the band.\n\n"
+         "real (> 0: optimistic). From episode 2 on, new policies and replays of the best "
+         "policy already run are counted apart; a calibrated model has about 90 % inside the "
+         "band. Episode 1, predicted before any real data by the prior simulator alone (its "
+         "rollouts agree where the simulator is deterministic), is counted apart too.\n\n"
          "| variant | panel | new policies | inside 5–95 % | median gap | replays | inside "
-         "5–95 % | median gap |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
+         "5–95 % | median gap | episode 1 | inside 5–95 % | median gap |\n"
+         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const auto& g : report.groups) {
-      if (g.calibrated_episodes + g.replayed_episodes == 0) continue;
+      if (g.calibrated_episodes + g.replayed_episodes + g.prior_only_episodes == 0) continue;
       auto rate = [](double r) {
         return std::isfinite(r) ? fmt::format("{:.0f} %", 100 * r) : std::string("–");
       };
       auto gap = [](double x) { return std::isfinite(x) ? fmt::format("{:.3g}", x) : "–"; };
-      t += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g.variant, panel_title(g),
-                       g.calibrated_episodes, rate(g.inside_band_rate), gap(g.median_gap),
-                       g.replayed_episodes, rate(g.replay_inside_band_rate),
-                       gap(g.replay_median_gap));
+      t += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", g.variant,
+                       panel_title(g), g.calibrated_episodes, rate(g.inside_band_rate),
+                       gap(g.median_gap), g.replayed_episodes, rate(g.replay_inside_band_rate),
+                       gap(g.replay_median_gap), g.prior_only_episodes,
+                       rate(g.prior_only_inside_band_rate), gap(g.prior_only_median_gap));
     }
   }
 

@@ -85,16 +85,22 @@ struct GroupReport {
   /// Median of each run's report metric at its last finished episode; NaN when none.
   double median_final_metric = std::numeric_limits<double>::quiet_NaN();
   /// Calibration of the model's predictions (algo::Calibration) over the group's episodes that a
-  /// model predicted: those whose policy was new (calibrated_episodes), and apart those that
-  /// replayed the best policy already run (replayed_episodes). Per set: the fraction whose real
-  /// return fell inside the predicted rollouts' 5-95 % band and the median gap predicted - real
-  /// (> 0: optimistic); NaN when the set is empty.
+  /// model predicted, in three sets: from episode 2 on, those whose policy was new
+  /// (calibrated_episodes) and those that replayed the best policy already run
+  /// (replayed_episodes); and episode 1 (prior_only_episodes), predicted before any real data by
+  /// the prior simulator alone, whose rollouts agree (a band of zero width) wherever the
+  /// simulator is deterministic. Per set: the fraction whose real return fell inside the
+  /// predicted rollouts' 5-95 % band and the median gap predicted - real (> 0: optimistic); NaN
+  /// when the set is empty.
   int calibrated_episodes = 0;
   double inside_band_rate = std::numeric_limits<double>::quiet_NaN();
   double median_gap = std::numeric_limits<double>::quiet_NaN();
   int replayed_episodes = 0;
   double replay_inside_band_rate = std::numeric_limits<double>::quiet_NaN();
   double replay_median_gap = std::numeric_limits<double>::quiet_NaN();
+  int prior_only_episodes = 0;
+  double prior_only_inside_band_rate = std::numeric_limits<double>::quiet_NaN();
+  double prior_only_median_gap = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> phi_names;  ///< phi names (from the group's first run)
   std::vector<double> phi_actual;      ///< phi of the real system (from the group's first run)
   std::vector<EpisodeStats> episodes;  ///< k = 1, 2, ... up to the longest run
