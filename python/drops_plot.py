@@ -624,8 +624,8 @@ def plot_calibration(calibration_csv, output_png):
     """Where the real returns fell among the model's predicted rollouts' returns (drops report's
     calibration.csv): per panel, one histogram per variant of the quantiles of the episodes whose
     policy was new (replays of the best policy and episode 1, predicted by the prior alone, left
-    out), as fractions of the episodes in 10 bins. A calibrated model gives a flat histogram at 0.1; mass at 0 means real returns below
-    every predicted one (an optimistic model)."""
+    out), as fractions of the episodes in 10 bins. A calibrated model gives a flat histogram at
+    0.1; mass at 0 means real returns below every predicted one (an optimistic model)."""
     with open(calibration_csv, newline="") as f:
         rows = [r for r in csv.DictReader(f)
                 if r["replay"] == "0" and r["episode"] != "1" and r["quantile"] != "nan"]

@@ -3,9 +3,10 @@ speeds.py and swing_ups.py. Standard library only.
 
 Per group (variant and prior or damage), from episode 2 on the episodes with a new policy and
 the replays of the best one apart, and episode 1 (predicted before any real data by the prior
-simulator alone, whose rollouts agree: a band of zero width) apart too: how many, the fraction whose real return fell inside the model's 5-95 % band,
-the fraction inside the range of the model's rollouts (above the lowest predicted return and below
-the highest: 0 < calibration_quantile < 1), and the median gap predicted - real return.
+simulator alone, whose rollouts agree: a band of zero width) apart too: how many, the fraction
+whose real return fell inside the model's 5-95 % band, the fraction inside the range of the
+model's rollouts (above the lowest predicted return and below the highest:
+0 < calibration_quantile < 1), and the median gap predicted - real return.
 
 What a calibrated model scores (the real return one more draw from the rollouts' distribution):
 90 % inside the band as drops computes it since the band moved to Hyndman & Fan's definition 6

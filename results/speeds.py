@@ -48,7 +48,7 @@ def main():
         raise SystemExit(2)
     campaign = args[1] if len(args) == 2 else None
     runs = defaultdict(dict)  # (variant, damage, seed) -> {episode: (speed, fell)}
-    calibration = cal.new_table()  # (variant, damage) -> (new policies, replays)
+    calibration = cal.new_table()  # (variant, damage) -> (new policies, replays, episode 1)
     with open(args[0], newline="") as f:
         for row in csv.DictReader(f):
             if campaign is not None and row["campaign"] != campaign:

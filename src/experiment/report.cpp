@@ -136,17 +136,26 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     if (rs.empty()) continue;
     const std::string& metric = g.report.metric.name;
     std::vector<double> first_episode, first_time, final_return, final_metric;
-    std::vector<double> gaps, replay_gaps, prior_gaps;
-    int inside = 0, replay_inside = 0, prior_inside = 0;
+    // The calibrated episodes in GroupReport's three sets: new policies, replays, episode 1.
+    struct CalibrationSet {
+      std::vector<double> gaps;
+      int inside = 0;
+      void summarise(int& count, double& inside_rate, double& median_gap) const {
+        count = static_cast<int>(gaps.size());
+        if (gaps.empty()) return;
+        inside_rate = static_cast<double>(inside) / static_cast<double>(gaps.size());
+        median_gap = quantile(gaps, 0.5);
+      }
+    } new_policies, replays, prior_only;
     int max_episode = 0;
     for (const RunResult* r : rs) {
       g.run_names.push_back(r->name);
       for (const auto& e : r->episodes) {
         if (!e.has_calibration || !std::isfinite(e.gap)) continue;
         // Episode 1 was predicted before any real data, by the prior simulator alone.
-        const bool prior_only = e.episode == 1;
-        (prior_only ? prior_gaps : e.replay ? replay_gaps : gaps).push_back(e.gap);
-        (prior_only ? prior_inside : e.replay ? replay_inside : inside) += e.inside_band ? 1 : 0;
+        CalibrationSet& set = e.episode == 1 ? prior_only : e.replay ? replays : new_policies;
+        set.gaps.push_back(e.gap);
+        set.inside += e.inside_band ? 1 : 0;
       }
       if (r->status == "complete")
         ++g.complete;
@@ -179,23 +188,10 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
     g.median_first_solve_time_s = first_time.empty() ? kNaN : quantile(first_time, 0.5);
     if (!final_return.empty()) g.median_final_return = quantile(final_return, 0.5);
     if (!final_metric.empty()) g.median_final_metric = quantile(final_metric, 0.5);
-    g.calibrated_episodes = static_cast<int>(gaps.size());
-    g.replayed_episodes = static_cast<int>(replay_gaps.size());
-    if (!gaps.empty()) {
-      g.inside_band_rate = static_cast<double>(inside) / static_cast<double>(gaps.size());
-      g.median_gap = quantile(gaps, 0.5);
-    }
-    if (!replay_gaps.empty()) {
-      g.replay_inside_band_rate =
-          static_cast<double>(replay_inside) / static_cast<double>(replay_gaps.size());
-      g.replay_median_gap = quantile(replay_gaps, 0.5);
-    }
-    g.prior_only_episodes = static_cast<int>(prior_gaps.size());
-    if (!prior_gaps.empty()) {
-      g.prior_only_inside_band_rate =
-          static_cast<double>(prior_inside) / static_cast<double>(prior_gaps.size());
-      g.prior_only_median_gap = quantile(prior_gaps, 0.5);
-    }
+    new_policies.summarise(g.calibrated_episodes, g.inside_band_rate, g.median_gap);
+    replays.summarise(g.replayed_episodes, g.replay_inside_band_rate, g.replay_median_gap);
+    prior_only.summarise(g.prior_only_episodes, g.prior_only_inside_band_rate,
+                         g.prior_only_median_gap);
 
     const std::size_t nphi = g.phi_names.size();
     for (int k = 1; k <= max_episode; ++k) {
