@@ -91,10 +91,11 @@ KeyTable<BaseOptions> make_base_key_table() {
   const auto model = [](auto& o) -> auto& { return o.black_drops.model; };
   t.add("model.variance_points", [=](auto& o) -> auto& { return model(o).variance_points; })
       .range(0, 1000000)
-      .help("predictive variances of the output GPs from an evenly spaced subset of this many "
-            "transitions once there are more (subset of data: never below the exact variance, "
-            "O(m^2) instead of O(N^2) per prediction; means use every transition); 0 = every "
-            "transition");
+      .help("predictive variances of the output GPs from a subset of at most this many "
+            "transitions once there are more: the distinct ones (a replayed policy repeats its "
+            "transitions), evenly spaced among them when there are more (subset of data: never "
+            "below the exact variance, O(m^2) instead of O(N^2) per prediction; means use every "
+            "transition); 0 = every transition");
   t.add("model.rprop.iterations", [=](auto& o) -> auto& { return model(o).rprop.max_iterations; })
       .range(1, 100000)
       .help("Rprop iterations of the final kernel fit per output GP");

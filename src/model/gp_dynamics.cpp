@@ -91,11 +91,13 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   Dataset d = make_dataset(data, task_.get(), E_, U_);
   s.points = d.size();
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
-  // Variances from an evenly spaced subset (ModelOptions::variance_points): its rows go last, in
-  // order, after the others in order; gp::Gp::set_variance_points conditions on the last rows.
+  // Variances from a subset (ModelOptions::variance_points, variance_subset): its rows go last,
+  // in order, after the others in order; gp::Gp::set_variance_points conditions on the last rows.
   const int m = options_.variance_points;
+  int variance_rows = m;
   if (m > 0 && d.size() > m) {
-    const std::vector<int> subset = subsample(d.size(), m);
+    const std::vector<int> subset = variance_subset(d.gp_in, m);
+    variance_rows = static_cast<int>(subset.size());
     std::vector<int> order;
     order.reserve(static_cast<std::size_t>(d.size()));
     std::size_t k = 0;
@@ -134,7 +136,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
-  for (auto& g : gps_) g.set_variance_points(options_.variance_points);
+  for (auto& g : gps_) g.set_variance_points(variance_rows);
   clear_samples();
   posterior_ = s.phi_posterior;
   if (options_.gp_mi.rollout_phi == RolloutPhi::kPosterior) {  // kept for draw_phi_samples

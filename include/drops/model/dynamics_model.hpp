@@ -47,11 +47,12 @@ struct ModelOptions {
   GpMiOptions gp_mi;
   MiOptions mi;
   /// Output GPs (gp, gp_prior, gp_mi): once learn() has more than m = variance_points
-  /// transitions, predictive variances from an evenly spaced subset of m of them (rows
-  /// floor(k N / m), k < m: subsample), the subset of data approximation
-  /// (gp::Gp::set_variance_points; the model puts the subset last in its GPs' rows): never below
-  /// the exact variance, O(m^2) instead of O(N^2) per prediction. Means use every transition.
-  /// 0 = every transition (exact). >= 0.
+  /// transitions, predictive variances from a subset of at most m of them, the subset of data
+  /// approximation (gp::Gp::set_variance_points; the model puts the subset last in its GPs'
+  /// rows): the distinct transitions (a policy replayed on a deterministic robot repeats its
+  /// transitions), evenly spaced among them when there are more than m (variance_subset).
+  /// Never below the exact variance, O(m^2) instead of O(N^2) per prediction. Means use every
+  /// transition. 0 = every transition (exact). >= 0.
   int variance_points = 0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
