@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -627,6 +628,71 @@ TEST(Gp, SubsetVariancesAreThoseOfTheGpOfTheLastMPointsAndMeansStayExact) {
     EXPECT_EQ(v5, v4);
   }
   EXPECT_THROW(se.set_variance_points(-1), drops::InvalidArgument);
+}
+
+// greedy_variance_subset against a naive greedy search: at each step every remaining row's
+// latent variance given the rows chosen so far is recomputed from scratch (a dense solve per
+// GP), in units of the GP's signal variance and summed; the largest is chosen. Two GPs with
+// different kernels share the inputs. A repeated input (noise far below the tolerance) is not
+// chosen twice, and with m at least the distinct rows the selection stops at them.
+TEST(Gp, GreedyVarianceSubsetMatchesANaiveGreedySearch) {
+  Rng rng(31);
+  const int N = 30, D = 2, m = 9;
+  const MatrixXd X = RandomMatrix(rng, N, D, -2, 2);
+  std::vector<Gp> gps(2, Gp(D));
+  std::vector<VectorXd> hs;
+  for (auto& g : gps) {
+    hs.push_back(RandomH(rng, D));
+    g.set_h_params(hs.back());
+  }
+  const auto naive = [&](const MatrixXd& Xs, int count) {
+    std::vector<int> chosen;
+    for (int k = 0; k < count; ++k) {
+      int best = -1;
+      double best_score = -1.0;
+      for (int j = 0; j < Xs.rows(); ++j) {
+        if (std::find(chosen.begin(), chosen.end(), j) != chosen.end()) continue;
+        double score = 0.0;
+        for (const VectorXd& h : hs) {
+          const double sf2 = std::exp(2.0 * h[D]);
+          double v = sf2;
+          if (!chosen.empty()) {
+            MatrixXd S(static_cast<int>(chosen.size()), D);
+            for (std::size_t c = 0; c < chosen.size(); ++c) S.row(static_cast<int>(c)) = Xs.row(chosen[c]);
+            VectorXd kj(S.rows());
+            for (int c = 0; c < S.rows(); ++c)
+              kj[c] = NaiveKernel(S.row(c).transpose(), Xs.row(j).transpose(), h);
+            v -= kj.dot(NaiveK(S, h, true).llt().solve(kj));
+          }
+          score += v / sf2;
+        }
+        if (score > best_score) best_score = score, best = j;
+      }
+      chosen.push_back(best);
+    }
+    std::sort(chosen.begin(), chosen.end());
+    return chosen;
+  };
+  EXPECT_EQ(drops::gp::greedy_variance_subset(X, gps, m), naive(X, m));
+  std::vector<int> all(N);
+  for (int i = 0; i < N; ++i) all[static_cast<std::size_t>(i)] = i;
+  EXPECT_EQ(drops::gp::greedy_variance_subset(X, gps, N), all);
+  EXPECT_EQ(drops::gp::greedy_variance_subset(X, gps, 0), all);
+
+  // Copies: 8 distinct rows, each repeated, with noise 1e-12 of the signal variance.
+  MatrixXd R(24, D);
+  for (int i = 0; i < 24; ++i) R.row(i) = X.row(i % 8);
+  for (std::size_t g = 0; g < gps.size(); ++g) {
+    hs[g][D + 1] = hs[g][D] - 0.5 * std::log(1e12);
+    gps[g].set_h_params(hs[g]);
+  }
+  const std::vector<int> first8{0, 1, 2, 3, 4, 5, 6, 7};
+  EXPECT_EQ(drops::gp::greedy_variance_subset(R, gps, 20), first8);
+  EXPECT_EQ(drops::gp::greedy_variance_subset(R, gps, 6), naive(R.topRows(8), 6));
+
+  EXPECT_THROW(drops::gp::greedy_variance_subset(MatrixXd::Zero(12, 3), gps, 4),
+               drops::InvalidArgument);
+  EXPECT_THROW(drops::gp::greedy_variance_subset(X, gps, 4, -1.0), drops::InvalidArgument);
 }
 
 // 7. N = 0 predicts the prior.

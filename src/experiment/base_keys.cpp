@@ -92,10 +92,9 @@ KeyTable<BaseOptions> make_base_key_table() {
   t.add("model.variance_points", [=](auto& o) -> auto& { return model(o).variance_points; })
       .range(0, 1000000)
       .help("predictive variances of the output GPs from a subset of at most this many "
-            "transitions once there are more: the distinct ones (a replayed policy repeats its "
-            "transitions), evenly spaced among them when there are more (subset of data: never "
-            "below the exact variance, O(m^2) instead of O(N^2) per prediction; means use every "
-            "transition); 0 = every transition");
+            "transitions once there are more, chosen greedily where the subset so far explains "
+            "the data least (subset of data: never below the exact variance, O(m^2) instead of "
+            "O(N^2) per prediction; means use every transition); 0 = every transition");
   t.add("model.rprop.iterations", [=](auto& o) -> auto& { return model(o).rprop.max_iterations; })
       .range(1, 100000)
       .help("Rprop iterations of the final kernel fit per output GP");

@@ -623,4 +623,57 @@ Eigen::MatrixXd Gp::inverse_covariance() const {
   return Kinv;
 }
 
+std::vector<int> greedy_variance_subset(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
+                                        int m, double tolerance) {
+  const Index N = X.rows();
+  std::vector<int> out;
+  if (m <= 0 || N <= m) {
+    for (Index i = 0; i < N; ++i) out.push_back(static_cast<int>(i));
+    return out;
+  }
+  if (!(tolerance >= 0.0))
+    throw InvalidArgument("greedy_variance_subset: tolerance must be >= 0, got " +
+                          std::to_string(tolerance));
+  const auto G = static_cast<Index>(gps.size());
+  for (const Gp& g : gps)
+    if (g.input_dim() != X.cols())
+      throw InvalidArgument("greedy_variance_subset: a GP has input dimension " +
+                            std::to_string(g.input_dim()) + ", X has " + std::to_string(X.cols()));
+  // Per GP: the columns of the pivoted Cholesky factor so far (N x m) and every row's latent
+  // variance given the chosen rows' observations, k(x,x) - sum of the squared factor entries.
+  std::vector<MatrixXd> L(static_cast<std::size_t>(G), MatrixXd(N, m));
+  MatrixXd var(N, G);
+  VectorXd scale(G), noise(G);
+  for (Index g = 0; g < G; ++g) {
+    const Gp& gp = gps[static_cast<std::size_t>(g)];
+    const double sf2 = gp.kernel().variance();
+    var.col(g).setConstant(sf2);
+    scale[g] = sf2 > 0.0 ? 1.0 / sf2 : 0.0;
+    noise[g] = gp.noise_variance();
+  }
+  std::vector<char> chosen(static_cast<std::size_t>(N), 0);
+  VectorXd score(N), col(N);
+  for (int k = 0; k < m; ++k) {
+    score.noalias() = var * scale;
+    Index best = -1;
+    for (Index i = 0; i < N; ++i)
+      if (!chosen[static_cast<std::size_t>(i)] && (best < 0 || score[i] > score[best])) best = i;
+    if (best < 0 || !(score[best] > tolerance * static_cast<double>(G))) break;
+    for (Index g = 0; g < G; ++g) {
+      auto& Lg = L[static_cast<std::size_t>(g)];
+      col = gps[static_cast<std::size_t>(g)].kernel().gram(X, X.row(best));
+      if (k > 0) col.noalias() -= Lg.leftCols(k) * Lg.row(best).head(k).transpose();
+      col[best] = var(best, g);  // the same quantity, without the round-off of the difference
+      const double pivot = var(best, g) + noise[g];
+      Lg.col(k) = col / std::sqrt(pivot);
+      var.col(g) -= Lg.col(k).cwiseAbs2();
+    }
+    var = var.cwiseMax(0.0);
+    chosen[static_cast<std::size_t>(best)] = 1;
+    out.push_back(static_cast<int>(best));
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 }  // namespace drops::gp

@@ -59,36 +59,6 @@ std::vector<int> subsample(int N, int max_points) {
   return idx;
 }
 
-std::vector<int> distinct_rows(const MatrixXd& A) {
-  const int N = static_cast<int>(A.rows());
-  std::vector<int> order(static_cast<std::size_t>(N));
-  for (int i = 0; i < N; ++i) order[static_cast<std::size_t>(i)] = i;
-  const auto less = [&A](int a, int b) {
-    for (Eigen::Index c = 0; c < A.cols(); ++c) {
-      if (A(a, c) < A(b, c)) return true;
-      if (A(b, c) < A(a, c)) return false;
-    }
-    return false;
-  };
-  // Equal rows end up adjacent, the lowest index first.
-  std::stable_sort(order.begin(), order.end(), less);
-  std::vector<int> out;
-  for (std::size_t k = 0; k < order.size(); ++k)
-    if (k == 0 || less(order[k - 1], order[k])) out.push_back(order[k]);
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<int> variance_subset(const MatrixXd& gp_in, int m) {
-  const int N = static_cast<int>(gp_in.rows());
-  if (m <= 0 || N <= m) return subsample(N, 0);
-  const std::vector<int> distinct = distinct_rows(gp_in);
-  const int D = static_cast<int>(distinct.size());
-  std::vector<int> out;
-  for (int k : subsample(D, m)) out.push_back(distinct[static_cast<std::size_t>(k)]);
-  return out;
-}
-
 MatrixXd prior_outputs(const MeanFunction& prior, const MatrixXd& X, const MatrixXd& U,
                        const VectorXd& phi, long* nonfinite) {
   const int N = static_cast<int>(X.rows()), E = prior.state_dim();

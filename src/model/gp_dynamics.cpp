@@ -91,26 +91,6 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   Dataset d = make_dataset(data, task_.get(), E_, U_);
   s.points = d.size();
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
-  // Variances from a subset (ModelOptions::variance_points, variance_subset): its rows go last,
-  // in order, after the others in order; gp::Gp::set_variance_points conditions on the last rows.
-  const int m = options_.variance_points;
-  int variance_rows = m;
-  if (m > 0 && d.size() > m) {
-    const std::vector<int> subset = variance_subset(d.gp_in, m);
-    variance_rows = static_cast<int>(subset.size());
-    std::vector<int> order;
-    order.reserve(static_cast<std::size_t>(d.size()));
-    std::size_t k = 0;
-    for (int n = 0; n < d.size(); ++n) {
-      if (k < subset.size() && subset[k] == n)
-        ++k;
-      else
-        order.push_back(n);
-    }
-    order.insert(order.end(), subset.begin(), subset.end());
-    d = d.rows(order);
-  }
-
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.
   for (auto& g : gps_) g.set_variance_points(0);
@@ -136,6 +116,31 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
+  // Variances from a subset (ModelOptions::variance_points), chosen on the fitted kernels
+  // (gp::greedy_variance_subset): its rows go last, in order, after the others in order, and the
+  // GPs are refactorised on that order (the same kernels, the same posterior);
+  // gp::Gp::set_variance_points conditions on the last rows.
+  const int m = options_.variance_points;
+  int variance_rows = m;
+  if (m > 0 && d.size() > m) {
+    const std::vector<int> subset = gp::greedy_variance_subset(d.gp_in, gps_, m);
+    variance_rows = static_cast<int>(subset.size());
+    std::vector<int> order;
+    order.reserve(static_cast<std::size_t>(d.size()));
+    std::size_t k = 0;
+    for (int n = 0; n < d.size(); ++n) {
+      if (k < subset.size() && subset[k] == n)
+        ++k;
+      else
+        order.push_back(n);
+    }
+    order.insert(order.end(), subset.begin(), subset.end());
+    d = d.rows(order);
+    MatrixXd t(d.size(), targets.cols());
+    for (int n = 0; n < d.size(); ++n) t.row(n) = targets.row(order[static_cast<std::size_t>(n)]);
+    for (std::size_t i = 0; i < gps_.size(); ++i)
+      gps_[i].compute(d.gp_in, t.col(static_cast<Eigen::Index>(i)));
+  }
   for (auto& g : gps_) g.set_variance_points(variance_rows);
   clear_samples();
   posterior_ = s.phi_posterior;

@@ -256,4 +256,19 @@ class Gp {
                     Eigen::VectorXd& variance) const;
 };
 
+/// The rows of X (N x D) whose observations the subset-of-data variance (Gp::set_variance_points)
+/// should condition on, for GPs that share the inputs X (gps: each already fitted, on X or not;
+/// their kernels and noises are what counts). Greedy selection by a pivoted Cholesky
+/// factorisation of every GP's K + sigma_n^2 I (Harbrecht, Peters & Schneider 2012; Seeger,
+/// Williams & Lawrence 2003 choose by the same variance): each step adds the row whose latent
+/// variance given the rows chosen so far, in units of each GP's signal variance and summed over
+/// the GPs, is the largest (ties: the lowest row). It stops at m rows, or earlier when no row's
+/// exceeds `tolerance` per GP on average: a repeated input is never chosen twice while the noise
+/// is below tolerance x sigma_f^2, and every row not chosen keeps a latent variance of at most
+/// about G x tolerance x sigma_f^2 more than the exact one. Returns increasing row indices;
+/// every row when m <= 0 or N <= m. O(G N m^2) time, O(G N m) memory. Throws InvalidArgument
+/// when a GP's input dimension is not X's or tolerance < 0. Thread-safe (reads the GPs).
+std::vector<int> greedy_variance_subset(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
+                                        int m, double tolerance = 1e-9);
+
 }  // namespace drops::gp

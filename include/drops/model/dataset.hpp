@@ -30,22 +30,6 @@ Dataset make_dataset(const std::vector<Transition>& data, const Task* task, int 
 /// every row when max_points <= 0 or N <= max_points. Thread-safe.
 std::vector<int> subsample(int N, int max_points);
 
-/// Indices of the distinct rows of A (N x D): each row's first occurrence, in increasing order.
-/// Rows are equal when every entry compares equal (a policy replayed on a deterministic robot
-/// records the same transitions again). O(N log N D). Thread-safe.
-std::vector<int> distinct_rows(const MatrixXd& A);
-
-/// The rows the output GPs condition their predictive variances on (ModelOptions::
-/// variance_points = m): every row when m <= 0 or N <= m; otherwise the distinct rows of gp_in
-/// (distinct_rows), all of them when there are at most m, else an evenly spaced subset of m
-/// of them (the distinct rows at positions floor(k U / m), k < m, of the U). Increasing
-/// indices. Dropping a duplicate changes the variance only through the noise (it would shrink
-/// sigma_n^2 at that input), so when the distinct rows number at most m the variances are the
-/// exact ones up to that; an evenly spaced subset of the rows instead leaves out distinct rows
-/// while it keeps duplicates (Rasmussen & Williams 2006, §8.3.1: any subset gives an upper
-/// bound on the exact variance). Thread-safe.
-std::vector<int> variance_subset(const MatrixXd& gp_in, int m);
-
 /// M(x_n, u_n; phi) for every row of X (N x E) and U (N x U), in parallel (drops::parallel_for);
 /// returns N x E. Outputs that are not finite are kept and counted in *nonfinite (when not
 /// null). phi must have been checked by prior.check_phi. Deterministic.

@@ -49,10 +49,11 @@ struct ModelOptions {
   /// Output GPs (gp, gp_prior, gp_mi): once learn() has more than m = variance_points
   /// transitions, predictive variances from a subset of at most m of them, the subset of data
   /// approximation (gp::Gp::set_variance_points; the model puts the subset last in its GPs'
-  /// rows): the distinct transitions (a policy replayed on a deterministic robot repeats its
-  /// transitions), evenly spaced among them when there are more than m (variance_subset).
-  /// Never below the exact variance, O(m^2) instead of O(N^2) per prediction. Means use every
-  /// transition. 0 = every transition (exact). >= 0.
+  /// rows). The subset is chosen greedily on the fitted kernels (gp::greedy_variance_subset):
+  /// each transition added is the one the subset so far explains least, so a transition
+  /// recorded again (a policy replayed on a deterministic robot) is not chosen twice. Never
+  /// below the exact variance, O(m^2) instead of O(N^2) per prediction, plus O(E N m^2) per
+  /// learn() to choose. Means use every transition. 0 = every transition (exact). >= 0.
   int variance_points = 0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;

@@ -139,8 +139,8 @@ class PendubotPlugin final : public experiment::TaskPlugin {
 
   std::map<std::string, std::string> shared_defaults() const override {
     // The paper's score: on Table I's four priors it solved as early as the joint likelihood
-    // (the library's default) or earlier (docs/decisions/gp-mi-score.md). Variances from at most 400
-    // distinct transitions once there are more (8 episodes): a 15-episode run in 50 s
+    // (the library's default) or earlier (docs/decisions/gp-mi-score.md). Variances from a subset of 400
+    // transitions once there are more (8 episodes): a 15-episode run in 50 s
     // instead of 69, learning as well on the tuning seeds
     // (docs/decisions/pendubot-variance-points.md).
     return {{"model.gp_mi.score", "sum_likelihoods"}, {"model.variance_points", "400"}};
