@@ -658,7 +658,8 @@ TEST(Gp, GreedyVarianceSubsetMatchesANaiveGreedySearch) {
           double v = sf2;
           if (!chosen.empty()) {
             MatrixXd S(static_cast<int>(chosen.size()), D);
-            for (std::size_t c = 0; c < chosen.size(); ++c) S.row(static_cast<int>(c)) = Xs.row(chosen[c]);
+            for (std::size_t c = 0; c < chosen.size(); ++c)
+              S.row(static_cast<int>(c)) = Xs.row(chosen[c]);
             VectorXd kj(S.rows());
             for (int c = 0; c < S.rows(); ++c)
               kj[c] = NaiveKernel(S.row(c).transpose(), Xs.row(j).transpose(), h);

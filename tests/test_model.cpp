@@ -51,6 +51,15 @@ model::PriorParameters tunable_prior(const std::string& preset) {
   return p;
 }
 
+/// gp_prior with a short final kernel fit and variances from `variance_points` transitions.
+model::ModelOptions gp_prior_options(int variance_points) {
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpPrior;
+  o.rprop.max_iterations = 30;
+  o.variance_points = variance_points;
+  return o;
+}
+
 /// A model of `type` on the pendubot prior, starting from `params`.
 std::unique_ptr<model::DynamicsModel> pendubot_model(model::ModelOptions o, model::ModelType type,
                                                      const model::PriorParameters& params) {
@@ -580,12 +589,8 @@ TEST(Models, VariancePointsKeepEveryDistinctTransitionOfAReplayedEpisode) {
   auto task = std::make_shared<pendubot::SwingUpTask>();
   auto prior = std::make_shared<pendubot::PendubotPrior>();
   const auto params = tunable_prior("tunable");
-  model::ModelOptions o;
-  o.type = model::ModelType::kGpPrior;
-  o.rprop.max_iterations = 30;
-  model::GpDynamicsModel exact(o, task, prior, params);
-  o.variance_points = m;
-  model::GpDynamicsModel sub(o, task, prior, params);
+  model::GpDynamicsModel exact(gp_prior_options(0), task, prior, params);
+  model::GpDynamicsModel sub(gp_prior_options(m), task, prior, params);
   exact.learn(data);
   sub.learn(data);
   const model::Dataset d = model::make_dataset(data, task.get(), 4, 1);
@@ -627,10 +632,7 @@ TEST(Models, VariancePointsConditionTheVariancesOnAGreedySubset) {
   auto task = std::make_shared<pendubot::SwingUpTask>();
   auto prior = std::make_shared<pendubot::PendubotPrior>();
   const auto params = tunable_prior("tunable");
-  model::ModelOptions o;
-  o.type = model::ModelType::kGpPrior;
-  o.rprop.max_iterations = 30;
-  o.variance_points = m;
+  model::ModelOptions o = gp_prior_options(m);
   model::GpDynamicsModel sub(o, task, prior, params);
   sub.learn(data);
   const model::Dataset d = model::make_dataset(data, task.get(), 4, 1);

@@ -52,8 +52,9 @@ struct ModelOptions {
   /// rows). The subset is chosen greedily on the fitted kernels (gp::greedy_variance_subset):
   /// each transition added is the one the subset so far explains least, so a transition
   /// recorded again (a policy replayed on a deterministic robot) is not chosen twice. Never
-  /// below the exact variance, O(m^2) instead of O(N^2) per prediction, plus O(E N m^2) per
-  /// learn() to choose. Means use every transition. 0 = every transition (exact). >= 0.
+  /// below the exact variance, O(m^2) instead of O(N^2) per prediction; learn() pays O(E N m^2)
+  /// to choose and O(E N^3 / 3) to refactorise the GPs on the new row order. Means use every
+  /// transition. 0 = every transition (exact). >= 0.
   int variance_points = 0;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
