@@ -130,3 +130,34 @@ TEST(SwingUpTask, ObservationUsesCosSin) {
   EXPECT_DOUBLE_EQ(obs[3], std::sin(0.3));
   EXPECT_DOUBLE_EQ(obs[5], std::sin(-0.4));
 }
+
+// The task's reflection (the mirror about the vertical) is a symmetry of the dynamics: the
+// oracle is the simulator itself, stepped from the mirrored state under the mirrored torque,
+// for the actual robot and every prior of Table I; and it is an involution.
+TEST(Pendubot, TheReflectionIsASymmetryOfTheRobotAndOfEveryPrior) {
+  const SwingUpTask task;
+  const auto r = task.reflection();
+  ASSERT_TRUE(r.has_value());
+  Rng rng(11);
+  std::vector<Params> all{Params{}};
+  for (const auto& name : preset_names()) all.push_back(preset(name));
+  for (const Params& p : all) {
+    PendubotSystem sys(p);
+    for (int k = 0; k < 50; ++k) {
+      Transition t;
+      t.x = VectorXd(4);
+      t.x << rng.uniform(-8, 8), rng.uniform(-8, 8), rng.uniform(0, 6.3), rng.uniform(0, 6.3);
+      t.u = VectorXd::Constant(1, rng.uniform(-4, 4));  // beyond the torque limit too
+      t.dx = sys.step(t.x, t.u, rng) - t.x;
+      const Transition m = r->apply(t);
+      const VectorXd dx = sys.step(m.x, m.u, rng) - m.x;
+      EXPECT_LT((dx - m.dx).cwiseAbs().maxCoeff(), 1e-12 * (1 + t.dx.cwiseAbs().maxCoeff()));
+      const Transition back = r->apply(m);
+      EXPECT_LT((back.x - t.x).cwiseAbs().maxCoeff(), 1e-12);
+      EXPECT_EQ(back.u, t.u);
+      EXPECT_EQ(back.dx, t.dx);
+    }
+  }
+  EXPECT_EQ(r->apply({task.initial_state(), VectorXd::Zero(1), VectorXd::Zero(4)}).x,
+            task.initial_state());  // hanging is a fixed point
+}

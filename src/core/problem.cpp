@@ -1,5 +1,9 @@
 #include "drops/core/problem.hpp"
 
+#include <string>
+
+#include "drops/core/errors.hpp"
+
 namespace drops {
 
 std::vector<Transition> Trajectory::transitions() const {
@@ -14,6 +18,22 @@ std::vector<Transition> Trajectory::transitions() const {
     out.push_back(std::move(tr));
   }
   return out;
+}
+
+Transition Reflection::apply(const Transition& t) const {
+  if (state_sign.size() != state_offset.size() || t.x.size() != state_sign.size() ||
+      t.dx.size() != state_sign.size() || t.u.size() != action_sign.size())
+    throw InvalidArgument("Reflection::apply: sizes differ (state_sign " +
+                          std::to_string(state_sign.size()) + ", state_offset " +
+                          std::to_string(state_offset.size()) + ", action_sign " +
+                          std::to_string(action_sign.size()) + "; transition x " +
+                          std::to_string(t.x.size()) + ", u " + std::to_string(t.u.size()) +
+                          ", dx " + std::to_string(t.dx.size()) + ")");
+  Transition r;
+  r.x = state_offset + state_sign.cwiseProduct(t.x);
+  r.u = action_sign.cwiseProduct(t.u);
+  r.dx = state_sign.cwiseProduct(t.dx);
+  return r;
 }
 
 }  // namespace drops

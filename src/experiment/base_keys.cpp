@@ -95,6 +95,12 @@ KeyTable<BaseOptions> make_base_key_table() {
             "transitions once there are more, chosen greedily where the subset so far explains "
             "the data least (subset of data: never below the exact variance, O(m^2) instead of "
             "O(N^2) per prediction; means use every transition); 0 = every transition");
+  t.add("model.reflect_transitions",
+        [=](auto& o) -> auto& { return model(o).reflect_transitions; })
+      .help("gp, gp_prior, gp_mi: also learn every recorded transition reflected by the task's "
+            "symmetry (data augmentation; a task without one rejects true): the model knows the "
+            "mirror image of every state the robot visited, at up to 8 times the cost of "
+            "learning");
   t.add("model.rprop.iterations", [=](auto& o) -> auto& { return model(o).rprop.max_iterations; })
       .range(1, 100000)
       .help("Rprop iterations of the final kernel fit per output GP");

@@ -43,6 +43,22 @@ GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
   E_ = task_->state_dim();
   U_ = task_->action_dim();
   O_ = task_->observation_dim();
+  if (options_.reflect_transitions) {
+    reflection_ = task_->reflection();
+    if (!reflection_)
+      throw InvalidArgument("model.reflect_transitions: task '" + task_->name() +
+                            "' declares no reflection symmetry (Task::reflection); set it false");
+    check_size("task reflection state_sign", E_, reflection_->state_sign.size());
+    check_size("task reflection state_offset", E_, reflection_->state_offset.size());
+    check_size("task reflection action_sign", U_, reflection_->action_sign.size());
+    const auto signs = [](const VectorXd& v) {
+      return (v.array().abs() == 1.0).all();
+    };
+    if (!signs(reflection_->state_sign) || !signs(reflection_->action_sign) ||
+        !reflection_->state_offset.allFinite())
+      throw InvalidArgument("task '" + task_->name() +
+                            "': its reflection's signs must be +1 or -1 and its offset finite");
+  }
   if (prior_) {
     params_.check();
     check_size("prior state_dim vs task", E_, prior_->state_dim());
@@ -88,8 +104,15 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
                                     const ModelProgress& progress) {
   const auto t0 = Clock::now();
   ModelSummary s;
-  Dataset d = make_dataset(data, task_.get(), E_, U_);
-  s.points = d.size();
+  // ModelOptions::reflect_transitions: the reflected copies follow the recorded transitions.
+  std::vector<Transition> reflected;
+  if (reflection_) {
+    reflected.reserve(2 * data.size());
+    reflected = data;
+    for (const auto& t : data) reflected.push_back(reflection_->apply(t));
+  }
+  Dataset d = make_dataset(reflection_ ? reflected : data, task_.get(), E_, U_);
+  s.points = reflection_ ? d.size() / 2 : d.size();  // recorded transitions
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.

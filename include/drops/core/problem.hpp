@@ -5,6 +5,7 @@
 /// types under its own name (rollout::Task, ...), beside run_episode().
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,23 @@ struct Trajectory {
   /// The recorded transitions (x_t, u_t, x_{t+1} - x_t) of the steps whose next state is finite:
   /// t = 0..H-1, or t < nonfinite_step when the episode ended early.
   std::vector<Transition> transitions() const;
+};
+
+/// A reflection symmetry of a system's dynamics: the map R(x) = offset + sign .* x on states and
+/// R_u(u) = action_sign .* u on actions such that the real one-step difference transforms as
+/// f(R(x), R_u(u)) = sign .* f(x, u), f(x, u) = x_{t+1} - x_t (an involution: applying it twice
+/// gives x back). A planar arm's is the mirror about the vertical (every angle and velocity and
+/// the torque change sign; with angles measured from upright in [0, 2 pi), theta maps to
+/// 2 pi - theta).
+/// A model that knows it learns each recorded transition twice (ModelOptions::reflect_transitions;
+/// data augmentation by a known symmetry). A damaged or asymmetric robot has none.
+struct Reflection {
+  VectorXd state_sign;    ///< dim E; every entry +1 or -1
+  VectorXd state_offset;  ///< dim E, in the state's units
+  VectorXd action_sign;   ///< dim U; every entry +1 or -1
+  /// The reflected transition (x, u, dx) -> (R(x), R_u(u), sign .* dx). Sizes must match
+  /// (InvalidArgument otherwise). Thread-safe.
+  Transition apply(const Transition& t) const;
 };
 
 /// Everything about a problem except its dynamics: dimensions, start state, horizon, the observation
@@ -78,6 +96,10 @@ class Task {
     (void)x;
     return false;
   }
+  /// The system's reflection symmetry, if the task declares one (see Reflection; the
+  /// declaration is the task's claim about the real system, which no model checks). Default:
+  /// none. Thread-safe.
+  virtual std::optional<Reflection> reflection() const { return std::nullopt; }
 };
 
 class System;
@@ -130,6 +152,7 @@ inline std::unique_ptr<EpisodeSession> System::begin_episode(const VectorXd& x0)
 /// The problem's types as the rollouts, the algorithms and the tasks name them (the same types).
 namespace rollout {
 using drops::EpisodeSession;
+using drops::Reflection;
 using drops::System;
 using drops::Task;
 using drops::Trajectory;

@@ -4,6 +4,7 @@
 /// mean (gp_prior, gp_mi) or a zero mean (gp); gp_mi identifies phi first (Algorithm 2, gp_mi.hpp).
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "drops/gp/gp.hpp"
@@ -29,7 +30,9 @@ class GpDynamicsModel final : public DynamicsModel {
   ModelState state() const override;
   void restore(const ModelState& state) override;
   /// gp_mi: phi by identify_phi (warm-started from the previous phi and kernels), then every
-  /// output GP refit on all data at phi with options.rprop; the others: the refit only.
+  /// output GP refit on all data at phi with options.rprop; the others: the refit only. With
+  /// ModelOptions::reflect_transitions, "the data" are the transitions and their reflections
+  /// (2 data.size() rows; ModelSummary::points counts the recorded ones).
   ModelSummary learn(const std::vector<Transition>& data,
                      const ModelProgress& progress = nullptr) override;
   void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override;
@@ -63,6 +66,7 @@ class GpDynamicsModel final : public DynamicsModel {
   PriorParameters params_;
   int E_ = 0, U_ = 0, O_ = 0;
   VectorXd phi_;
+  std::optional<Reflection> reflection_;  // set when options_.reflect_transitions
   std::vector<gp::Gp> gps_;
   // The last learn()'s data and posterior (draw_phi_samples), and the samples drawn.
   MatrixXd data_x_, data_u_, data_dx_;

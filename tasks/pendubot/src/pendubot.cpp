@@ -182,6 +182,15 @@ void SwingUpTask::observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const {
   obs[5] = std::sin(x[3]);
 }
 
+std::optional<rollout::Reflection> SwingUpTask::reflection() const {
+  rollout::Reflection r;
+  r.state_sign = -VectorXd::Ones(4);
+  r.state_offset = VectorXd::Zero(4);
+  r.state_offset[2] = r.state_offset[3] = 2 * std::numbers::pi;
+  r.action_sign = -VectorXd::Ones(1);
+  return r;
+}
+
 double SwingUpTask::goal_distance(const VectorXd& x) const {
   const auto tip = tip_position(x, options_.goal_l1, options_.goal_l2);
   const double gy = options_.goal_l1 + options_.goal_l2;

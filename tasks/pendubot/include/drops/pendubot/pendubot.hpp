@@ -83,6 +83,11 @@ class SwingUpTask final : public rollout::Task {
   void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override;
   double reward(const VectorXd& x) const override;
   bool solved(const rollout::Trajectory& trajectory) const override;
+  /// The mirror about the vertical: x -> [-dth1, -dth2, 2 pi - th1, 2 pi - th2], u -> -u. The
+  /// dynamics (gravity sin th, the Coriolis terms, viscous friction, the torque) are odd in the
+  /// angles, velocities and torque, whatever the parameters, so the real robot and every prior
+  /// share it; the start state (hanging) and the goal (upright) are its fixed points.
+  std::optional<rollout::Reflection> reflection() const override;
   const TaskOptions& options() const { return options_; }
   /// Distance (m) from the tip to the goal for state x.
   double goal_distance(const VectorXd& x) const;
