@@ -10,6 +10,10 @@ writes to docs/results/ (or DIR):
   pendubot-gp_mi-fresh-returns.png  results/summaries/pendubot-gp_mi-fresh.csv: GP-MI on the fresh
                                     seeds 101-120 (configs/campaign-pendubot-gp_mi-fresh.yaml), every
                                     run and the median, one panel per prior
+  pendubot-reflected-returns.png    results/summaries/pendubot-gp_mi-fresh-reflected.csv and
+                                    pendubot-gp_mi-fresh.csv: GP-MI on the fresh seeds 101-120 with
+                                    priors C and D, with the pendubot's reflected transitions (every
+                                    run and the median) and before them (the median)
   hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
                                     walking speed per episode of gp_mi, gp_prior (the runs of
                                     configs/campaign-hexapod.yaml) and IT&E, seeds 1-5, intact and
@@ -190,6 +194,34 @@ def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
            os.path.join(output, name.replace(".csv", "-returns.png")), 3)
 
 
+def pendubot_reflected(output, name="pendubot-gp_mi-fresh-reflected.csv",
+                       before="pendubot-gp_mi-fresh.csv"):
+    rows, old = read(name), read(before)
+    seeds = sorted({int(r["seed"]) for r in rows})
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
+    for i, (prior, title) in enumerate(PENDUBOT_PANELS[:1:-1]):  # D, then C
+        ax = axes[i]
+        sel = [r for r in rows if r["prior"] == prior]
+        draw_runs(ax, sel, "real_return")
+        draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
+                   "reflected transitions (the default): median, 25–75 %", 4)
+        draw_curve(ax, curve([r for r in old if r["prior"] == prior], "real_return"), "black",
+                   "before them (exact variances): median, 25–75 %", 3)
+        ax.axhline(14, color="black", linestyle=":", linewidth=1.2,
+                   label="swing-up (return ≥ 14)")
+        ax.axvline(20, color="black", linestyle="--", linewidth=0.8, alpha=0.6,
+                   label="episode 8 (20 s)")
+        ax.set_title(title, loc="left")
+        ax.set_xlabel("interaction time (s)")
+        ax.set_xlim(0, max(float(r["interaction_time_s"]) for r in rows) + 1)
+        if i == 0:
+            ax.set_ylabel("return")
+    finish(fig, axes, f"Pendubot, Black-DROPS with GP-MI on fresh seeds {seeds[0]}–{seeds[-1]} "
+           f"({len(seeds)} runs per prior), with and without the reflected transitions:\nreturn "
+           "on the real system per episode",
+           os.path.join(output, "pendubot-reflected-returns.png"), 2)
+
+
 def hexapod_speed(output):
     rows = [r for r in read("hexapod.csv") if int(r["seed"]) <= 5]
     ceilings = read("hexapod-ceiling.csv")
@@ -325,6 +357,7 @@ def main():
     os.makedirs(args.output, exist_ok=True)
     pendubot_returns(args.output)
     pendubot_gp_mi_fresh(args.output)
+    pendubot_reflected(args.output)
     hexapod_speed(args.output)
     hexapod_20_seeds(args.output)
     hexapod_fresh(args.output)
