@@ -168,6 +168,16 @@ def pendubot_returns(output):
            os.path.join(output, "pendubot-returns.png"), 4)
 
 
+def swing_up_panel(ax, title, rows):
+    """A pendubot panel's marks: the swing-up line, episode 8, the title and the time axis."""
+    ax.axhline(14, color="black", linestyle=":", linewidth=1.2, label="swing-up (return ≥ 14)")
+    ax.axvline(20, color="black", linestyle="--", linewidth=0.8, alpha=0.6,
+               label="episode 8 (20 s)")
+    ax.set_title(title, loc="left")
+    ax.set_xlabel("interaction time (s)")
+    ax.set_xlim(0, max(float(r["interaction_time_s"]) for r in rows) + 1)
+
+
 def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
     rows = read(name)
     seeds = sorted({int(r["seed"]) for r in rows})
@@ -179,13 +189,7 @@ def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
         draw_runs(ax, sel, "real_return")
         draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
                    "Black-DROPS with GP-MI: median, 25–75 %", 4)
-        ax.axhline(14, color="black", linestyle=":", linewidth=1.2,
-                   label="swing-up (return ≥ 14)")
-        ax.axvline(20, color="black", linestyle="--", linewidth=0.8, alpha=0.6,
-                   label="episode 8 (20 s)")
-        ax.set_title(title, loc="left")
-        ax.set_xlabel("interaction time (s)")
-        ax.set_xlim(0, max(float(r["interaction_time_s"]) for r in rows) + 1)
+        swing_up_panel(ax, title, rows)
         if i % 2 == 0:
             ax.set_ylabel("return")
     finish(fig, axes, f"Pendubot, Black-DROPS with GP-MI on fresh seeds {seeds[0]}–{seeds[-1]} "
@@ -207,13 +211,7 @@ def pendubot_reflected(output, name="pendubot-gp_mi-fresh-reflected.csv",
                    "reflected transitions (the default): median, 25–75 %", 4)
         draw_curve(ax, curve([r for r in old if r["prior"] == prior], "real_return"), "black",
                    "before them (exact variances): median, 25–75 %", 3)
-        ax.axhline(14, color="black", linestyle=":", linewidth=1.2,
-                   label="swing-up (return ≥ 14)")
-        ax.axvline(20, color="black", linestyle="--", linewidth=0.8, alpha=0.6,
-                   label="episode 8 (20 s)")
-        ax.set_title(title, loc="left")
-        ax.set_xlabel("interaction time (s)")
-        ax.set_xlim(0, max(float(r["interaction_time_s"]) for r in rows) + 1)
+        swing_up_panel(ax, title, rows)
         if i == 0:
             ax.set_ylabel("return")
     finish(fig, axes, f"Pendubot, Black-DROPS with GP-MI on fresh seeds {seeds[0]}–{seeds[-1]} "

@@ -59,8 +59,9 @@ struct ModelOptions {
   /// Output GPs (gp, gp_prior, gp_mi): learn() also learns each recorded transition reflected by
   /// the task's symmetry (Task::reflection; data augmentation), so the model knows the mirror
   /// image of every state the robot visited: 2N transitions for N recorded, and the GP-MI search
-  /// and kernel fits cost up to 8 times as much. The model's mean and variance are then
-  /// equivariant: predict(R(x), R_u(u)) = (sign .* mean, var). The constructor throws
+  /// and kernel fits cost up to 8 times as much. With a prior that shares the symmetry (or none),
+  /// the model's mean and variance are then equivariant: predict(R(x), R_u(u)) =
+  /// (sign .* mean, var). The constructor throws
   /// InvalidArgument when the task declares no reflection.
   bool reflect_transitions = false;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
@@ -76,7 +77,8 @@ struct PhiSampling {
 
 /// What learn() did.
 struct ModelSummary {
-  int points = 0;                ///< recorded transitions used (ModelOptions::reflect_transitions: the GPs learn 2 points)
+  /// recorded transitions used (with ModelOptions::reflect_transitions the GPs learn 2 points)
+  int points = 0;
   VectorXd phi;                  ///< full prior parameters after learning (empty for gp)
   VectorXd log_likelihoods;      ///< per output GP, at the final fit (empty for mi)
   double score = 0;              ///< GP-MI score log sum_i exp(loglik_i) (or MI's mean squared error)
