@@ -57,6 +57,10 @@ class SwingUp(drops.Task):
     dt = 0.1
     horizon = 40
     max_action = 5.0
+    # The pendulum mirrored about the vertical (theta -> -theta, dtheta -> -dtheta, torque ->
+    # -torque) moves as the mirror image of the original: model.reflect_transitions=true lets
+    # the GP learn every swing to the left as a swing to the right too.
+    reflection = drops.Reflection(state_sign=[-1, -1], action_sign=[-1])
     length = 1.0                 # the real rod's length, for the tip in the reward (m)
     sigma = 0.5                  # width of the reward (m)
 

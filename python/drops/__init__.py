@@ -24,13 +24,13 @@ import numpy as _np
 from . import _drops
 from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDirectoryBusy,
                      RunDirectoryDamaged, RunOutcome)
-from .robot import Parameter, Prior, System, Task, _robot_spec
+from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec
 
 __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
     "read_trajectory", "read_policy", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
     "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged", "Task",
-    "System", "Prior", "Parameter",
+    "System", "Prior", "Parameter", "Reflection",
 ]
 
 

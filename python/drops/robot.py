@@ -1,7 +1,8 @@
 """Your own robot in Python: the three things a user writes (docs/python.md, "Your own robot").
 
 - a Task (subclass drops.Task): dimensions, horizon, control period, start state, observation,
-  reward, success criterion, and the bounds of the policy's action;
+  reward, success criterion, the bounds of the policy's action, and optionally a reflection
+  symmetry of the robot (drops.Reflection);
 - a System (subclass drops.System): the "real" robot, either step(x, u) for a simulated one or
   begin_episode(x0) returning a session with step(u) for a physical one;
 - a Prior (subclass drops.Prior, optional): a simulator with named tunable parameters phi and
@@ -43,6 +44,28 @@ class Parameter:
     unit: str = ""
 
 
+@_dataclass
+class Reflection:
+    """A reflection symmetry of the real robot's dynamics that a Task may declare (C++:
+    drops::Reflection). It maps a state x (E,) to state_offset + state_sign * x, an action u (A,)
+    to action_sign * u, and the one-step difference dx (E,) to state_sign * dx; the declaration
+    claims that the robot stepped from the mapped state with the mapped action moves by the
+    mapped difference. With model.reflect_transitions: true the GP models (gp, gp_prior, gp_mi)
+    learn every recorded transition and its mirror image (docs/your-own-robot.md, "A symmetry";
+    docs/decisions/pendubot-reflected-transitions.md). drops checks the shapes and values, not the
+    claim: declare it only if the robot has the symmetry (a damaged leg, a cable on one side or a
+    friction that differs with the direction breaks it).
+
+    state_sign: E entries, each +1 or -1.
+    action_sign: A entries, each +1 or -1.
+    state_offset: E finite entries in the state's units (None: zeros), e.g. 2 pi for an angle
+      measured in [0, 2 pi) and mirrored about pi.
+    """
+    state_sign: tuple
+    action_sign: tuple
+    state_offset: tuple = None
+
+
 class Task:
     """What an episode is (everything but the dynamics). Subclass it and set the attributes.
 
@@ -58,6 +81,8 @@ class Task:
       observation_scale: O divisors of the observation at the policy's input (None: ones), so
         that the network sees values of order 1 (e.g. 10 for an angular velocity in rad/s).
       hidden_units: the policy network's tanh units (the default of the key policy.hidden_units).
+      reflection: a drops.Reflection, the robot's reflection symmetry, or None (default: none).
+        model.reflect_transitions: true needs one.
 
     Methods to write; they are called from drops's threads, one call at a time (the interpreter
     lock), and must not depend on the order of the calls:
@@ -79,6 +104,7 @@ class Task:
     max_action = 1.0
     observation_scale = None
     hidden_units = 10
+    reflection = None
 
     def initial_state(self):
         """x_0, an array (E,)."""
@@ -166,6 +192,32 @@ def _names(value, what):
     return names
 
 
+def _reflection_spec(value, E, A, tname):
+    """Task.reflection checked: None, or a dict of lists for the C++ side; raises TypeError or
+    ValueError naming the field."""
+    if value is None:
+        return None
+    if not isinstance(value, Reflection):
+        raise TypeError(f"{tname}.reflection: expected a drops.Reflection or None, got "
+                        f"{type(value).__name__}")
+
+    def field(v, n, what, signs):
+        a = _np.zeros(n) if v is None else _np.asarray(v, dtype=float).reshape(-1)
+        if a.shape != (n,):
+            raise ValueError(f"{tname}.reflection.{what}: expected {n} entries, got {a.size}")
+        if signs and not _np.all(_np.abs(a) == 1):
+            raise ValueError(f"{tname}.reflection.{what}: expected +1 or -1 entries, got "
+                             f"{a.tolist()}")
+        if not _np.all(_np.isfinite(a)):
+            raise ValueError(f"{tname}.reflection.{what}: expected finite entries, got "
+                             f"{a.tolist()}")
+        return a.tolist()
+
+    return {"state_sign": field(value.state_sign, E, "state_sign", True),
+            "state_offset": field(value.state_offset, E, "state_offset", False),
+            "action_sign": field(value.action_sign, A, "action_sign", True)}
+
+
 def _robot_spec(task, system, prior):
     """Checks the user's objects and returns what the C++ side reads (a dict); raises TypeError
     or ValueError naming the attribute."""
@@ -209,6 +261,7 @@ def _robot_spec(task, system, prior):
                          f"{scale.tolist()}")
     if not float(task.max_action) > 0:
         raise ValueError(f"{tname}.max_action = {task.max_action}: expected > 0")
+    reflection = _reflection_spec(task.reflection, E, A, tname)
     params = list(prior.parameters) if prior is not None else []
     pname = type(prior).__name__
     for p in params:
@@ -232,6 +285,7 @@ def _robot_spec(task, system, prior):
         "observation_dim": O, "horizon": H, "dt": dt, "initial_state": x0.tolist(),
         "max_action": float(task.max_action), "observation_scale": scale.tolist(),
         "hidden_units": int(task.hidden_units),
+        "reflection": reflection,
         "phi_names": [p.name for p in params], "phi_units": [p.unit for p in params],
         "phi_values": [float(p.value) for p in params],
         "phi_lower": [float(p.lower) for p in params],

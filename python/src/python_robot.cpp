@@ -5,6 +5,7 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -124,6 +125,7 @@ struct Spec {
   std::vector<bool> phi_tunable;
   std::vector<double> phi_actual;
   bool has_check_phi = false;
+  std::optional<Reflection> reflection;  // Task.reflection, checked by drops.robot
 };
 
 VectorXd vector_from(py::handle h) {
@@ -158,6 +160,11 @@ Spec read_spec(const py::dict& d) {
   s.phi_tunable = d["phi_tunable"].cast<std::vector<bool>>();
   s.phi_actual = d["phi_actual"].cast<std::vector<double>>();
   s.has_check_phi = d["has_check_phi"].cast<bool>();
+  if (const py::handle r = d["reflection"]; !r.is_none()) {
+    const auto rd = py::reinterpret_borrow<py::dict>(r);
+    s.reflection = Reflection{vector_from(rd["state_sign"]), vector_from(rd["state_offset"]),
+                              vector_from(rd["action_sign"])};
+  }
   return s;
 }
 
@@ -207,6 +214,7 @@ class PyTask final : public Task {
     });
     require_finite(r, X, cb);
   }
+  std::optional<Reflection> reflection() const override { return s_.reflection; }
   bool solved(const Trajectory& tr) const override {
     return with_python(*c_.errors, s_.task_class + ".solved", [&] {
       return py::bool_(c_.solved(to_array(tr.states), to_array(tr.actions),

@@ -2,7 +2,8 @@
 prior and swings it up; a callback's exception comes out as itself and the run resumes; Ctrl-C
 inside a callback stops the run after its step (a physical robot's step is never repeated); wrong
 shapes and non-finite values are refused naming the callback; the same seed gives the same
-episodes with 1 and 2 threads; the algorithms that need only a task, a system and a prior run."""
+episodes with 1 and 2 threads; the algorithms that need only a task, a system and a prior run; a
+declared reflection reaches the model and a wrong one is refused naming the field."""
 
 import csv
 import json
@@ -238,3 +239,46 @@ def test_every_algorithm_that_needs_only_the_three_pieces_runs_and_the_others_ar
         with pytest.raises(drops.ConfigError, match=f"'algorithm' = '{algorithm}'"):
             drops.run(overrides={"algorithm": algorithm}, output=tmp_path, quiet=True,
                       progress=lambda line: None, **robot())
+
+
+def test_a_declared_reflection_is_learned_and_a_wrong_one_is_refused_naming_the_field(tmp_path):
+    # The example's pendulum declares its mirror about the vertical; with the key on, the GPs
+    # learn each recorded transition and its mirror image (C++ Models tests check that the
+    # predictions become equivariant), so the policies differ from the second episode on, and
+    # the run still learns the swing-up.
+    for name, reflect in (("off", False), ("on", True)):
+        drops.run(overrides={"model.type": "gp_mi", "episodes": 4,
+                             "optimizer.max_evaluations": 1500,
+                             "optimizer.prior_optimizations": 1,
+                             "model.reflect_transitions": reflect},
+                  seed=1, output=tmp_path, name=name, quiet=True, progress=lambda line: None,
+                  **robot())
+    off, on = rows(tmp_path / "off"), rows(tmp_path / "on")
+    assert on[0] == off[0]  # the random first episode
+    assert on[1]["real_return"] != off[1]["real_return"]
+    run = drops.read_run(tmp_path / "on")
+    assert run.episodes["solved"][-1], run.episodes["real_return"]
+    np.testing.assert_allclose(run.episodes["phi"][-1], [1.0, 1.0], rtol=0.1)
+
+    bad = [(drops.Reflection(state_sign=[-1, 0.5], action_sign=[-1]), ValueError,
+            r"SwingUp\.reflection\.state_sign: expected \+1 or -1 entries, got \[-1\.0, 0\.5\]"),
+           (drops.Reflection(state_sign=[-1, -1, 1], action_sign=[-1]), ValueError,
+            r"SwingUp\.reflection\.state_sign: expected 2 entries, got 3"),
+           (drops.Reflection(state_sign=[-1, -1], action_sign=[-1], state_offset=[0, np.inf]),
+            ValueError, r"SwingUp\.reflection\.state_offset: expected finite entries"),
+           (drops.Reflection(state_sign=[-1, -1], action_sign=[]), ValueError,
+            r"SwingUp\.reflection\.action_sign: expected 1 entries, got 0"),
+           ((-1, -1), TypeError, r"SwingUp\.reflection: expected a drops\.Reflection or None, "
+                                 r"got tuple")]
+    for reflection, error, message in bad:
+        task = pendulum.SwingUp()
+        task.reflection = reflection
+        with pytest.raises(error, match=message):
+            drops.run(output=tmp_path, task=task, system=pendulum.RealPendulum())
+    # The key needs a declared reflection.
+    task = pendulum.SwingUp()
+    task.reflection = None
+    with pytest.raises(drops.InvalidArgument, match="model.reflect_transitions"):
+        drops.run(overrides={**SMALL, "model.reflect_transitions": True}, output=tmp_path,
+                  name="none", quiet=True, progress=lambda line: None, task=task,
+                  system=pendulum.RealPendulum(), prior=pendulum.PendulumPrior())
