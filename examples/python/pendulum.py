@@ -141,10 +141,13 @@ def main():
     parser.add_argument("--output", default="runs", help="parent of the run directory")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--episodes", type=int, default=5)
+    parser.add_argument("--reflect", action="store_true",
+                        help="learn every transition and its mirror image "
+                             "(model.reflect_transitions, SwingUp.reflection)")
     args = parser.parse_args()
     # A smaller policy-search budget than the pendubot's suffices for this 51-parameter policy.
     settings = {"model.type": "gp_mi", "episodes": args.episodes,
-                "optimizer.max_evaluations": 2000}
+                "optimizer.max_evaluations": 2000, "model.reflect_transitions": args.reflect}
     out = drops.run(overrides=settings,
                     seed=args.seed, output=args.output,
                     task=SwingUp(), system=RealPendulum(), prior=PendulumPrior())
