@@ -12,8 +12,9 @@ writes to docs/results/ (or DIR):
                                     run and the median, one panel per prior
   pendubot-reflected-returns.png    results/summaries/pendubot-gp_mi-fresh-reflected.csv and
                                     pendubot-gp_mi-fresh.csv: GP-MI on the fresh seeds 101-120 with
-                                    priors C and D, with the pendubot's reflected transitions (every
-                                    run and the median) and before them (the median)
+                                    each prior the summary holds (D and C, then A and B), with the
+                                    pendubot's reflected transitions (every run and the median) and
+                                    before them (the median)
   hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
                                     walking speed per episode of gp_mi, gp_prior (the runs of
                                     configs/campaign-hexapod.yaml) and IT&E, seeds 1-5, intact and
@@ -201,22 +202,29 @@ def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
 def pendubot_reflected(output, name="pendubot-gp_mi-fresh-reflected.csv",
                        before="pendubot-gp_mi-fresh.csv"):
     rows, old = read(name), read(before)
-    seeds = sorted({int(r["seed"]) for r in rows})
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
-    for i, (prior, title) in enumerate(PENDUBOT_PANELS[:1:-1]):  # D, then C
+    # D and C first (the priors whose targets the reflected transitions were chosen for), then
+    # A and B, those the summary holds.
+    order = [PENDUBOT_PANELS[i] for i in (3, 2, 0, 1)]
+    panels = [(p, t) for p, t in order if any(r["prior"] == p for r in rows)]
+    shape = (1, 2) if len(panels) <= 2 else (2, 2)
+    fig, axes = plt.subplots(*shape, figsize=(11, 4.2 * shape[0]), sharey=True)
+    axes = axes.ravel()
+    for i, (prior, title) in enumerate(panels):
         ax = axes[i]
         sel = [r for r in rows if r["prior"] == prior]
+        ps = sorted({int(r["seed"]) for r in sel})
         draw_runs(ax, sel, "real_return")
         draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
                    "reflected transitions (the default): median, 25–75 %", 4)
-        draw_curve(ax, curve([r for r in old if r["prior"] == prior], "real_return"), "black",
-                   "before them (exact variances): median, 25–75 %", 3)
-        swing_up_panel(ax, title, rows)
-        if i == 0:
+        same = {r["seed"] for r in sel}
+        draw_curve(ax, curve([r for r in old if r["prior"] == prior and r["seed"] in same],
+                             "real_return"), "black",
+                   "before them (exact variances; the same seeds): median, 25–75 %", 3)
+        swing_up_panel(ax, f"{title} ({len(ps)} runs, seeds {ps[0]}–{ps[-1]})", rows)
+        if i % shape[1] == 0:
             ax.set_ylabel("return")
-    finish(fig, axes, f"Pendubot, Black-DROPS with GP-MI on fresh seeds {seeds[0]}–{seeds[-1]} "
-           f"({len(seeds)} runs per prior), with and without the reflected transitions:\nreturn "
-           "on the real system per episode",
+    finish(fig, axes, "Pendubot, Black-DROPS with GP-MI on fresh seeds, with and without the "
+           "reflected transitions:\nreturn on the real system per episode",
            os.path.join(output, "pendubot-reflected-returns.png"), 2)
 
 
