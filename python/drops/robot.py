@@ -56,14 +56,18 @@ class Reflection:
     claim: declare it only if the robot has the symmetry (a damaged leg, a cable on one side or a
     friction that differs with the direction breaks it).
 
-    state_sign: E entries, each +1 or -1.
+    state_sign: E entries (any sequence of numbers), each +1 or -1.
     action_sign: A entries, each +1 or -1.
     state_offset: E finite entries in the state's units (None: zeros), e.g. 2 pi for an angle
       measured in [0, 2 pi) and mirrored about pi.
+
+    drops.run and drops.resume raise ValueError naming the field for a wrong number of entries, a
+    sign other than +1 or -1, or a non-finite offset, and TypeError when Task.reflection is
+    neither a drops.Reflection nor None. Plain data: no thread constraints.
     """
-    state_sign: tuple
-    action_sign: tuple
-    state_offset: tuple = None
+    state_sign: object
+    action_sign: object
+    state_offset: object = None
 
 
 class Task:
