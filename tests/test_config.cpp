@@ -106,7 +106,13 @@ TEST(Config, DefaultsAreTheOptionsStructsDefaults) {
   EXPECT_EQ(a.model.rprop.max_length_scale_ratio, d.model.rprop.max_length_scale_ratio);
   EXPECT_EQ(a.model.rprop.penalty, d.model.rprop.penalty);
   EXPECT_EQ(a.model.gp_mi.max_evaluations, d.model.gp_mi.max_evaluations);
-  EXPECT_EQ(a.model.gp_mi.xtol_rel, d.model.gp_mi.xtol_rel);
+  // The pendubot sets its own tolerance (its shared_defaults); a task that sets none gets the
+  // struct's.
+  EXPECT_EQ(a.model.gp_mi.xtol_rel, 1e-9);
+  EXPECT_EQ(a.model.gp_mi.ftol_rel, 1e-9);
+  EXPECT_NE(d.model.gp_mi.xtol_rel, 1e-9);
+  const auto toy = algo_of(experiment::load_settings(toy_registry(), "task: toy\n", {}));
+  EXPECT_EQ(toy.model.gp_mi.xtol_rel, d.model.gp_mi.xtol_rel);
   EXPECT_EQ(a.model.mi.max_evaluations, d.model.mi.max_evaluations);
   EXPECT_EQ(a.search.cmaes.max_evaluations, d.search.cmaes.max_evaluations);
   EXPECT_EQ(a.search.cmaes.max_run_evaluations, d.search.cmaes.max_run_evaluations);
