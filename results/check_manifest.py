@@ -25,6 +25,7 @@ Checks (exit 1 with one line per failure, 0 when all hold):
 Standard library only, so any python3 runs it.
 """
 
+import argparse
 import csv
 import hashlib
 import math
@@ -282,7 +283,12 @@ def check_git(results, rows):
 
 
 def main():
-    results = sys.argv[1] if len(sys.argv) > 1 else os.path.dirname(os.path.abspath(__file__))
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("results", metavar="RESULTS_DIR", nargs="?",
+                        default=os.path.dirname(os.path.abspath(__file__)),
+                        help="the results folder (default: the one of this script)")
+    results = parser.parse_args().results
     columns, rows = read_csv(os.path.join(results, "manifest.csv"))
     if columns != MANIFEST_COLUMNS:
         print(f"check_manifest.py: manifest.csv columns {columns}, documented {MANIFEST_COLUMNS}")

@@ -43,15 +43,26 @@ import csv
 import os
 import sys
 
-try:
-    import matplotlib
+plt = None  # matplotlib.pyplot, imported by main() once the arguments are read
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-except ImportError as exc:
-    print(f"draw_figures.py: {exc}; run it with Debian's /usr/bin/python3 "
-          "(python3-matplotlib)", file=sys.stderr)
-    sys.exit(3)
+
+def import_matplotlib():
+    """Imports matplotlib.pyplot (headless) into plt; exits 3 when this python3 lacks it."""
+    global plt
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot
+    except ImportError as exc:
+        print(f"draw_figures.py: {exc}; run it with Debian's /usr/bin/python3 "
+              "(python3-matplotlib)", file=sys.stderr)
+        sys.exit(3)
+    plt = matplotlib.pyplot
+    plt.rcParams.update({
+        "font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "legend.fontsize": 10,
+        "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 100,
+    })
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SUMMARIES = os.path.join(HERE, "summaries")
@@ -76,11 +87,6 @@ PENDUBOT_PANELS = [("tunable-useful", "A tunable & useful"), ("tunable", "B tuna
 IGNORE_PRIOR = {"gp", "pilco"}
 HEXAPOD_PANELS = [("intact", "real robot: intact"),
                   ("leg5", "real robot: rear-right leg (leg5) removed")]
-
-plt.rcParams.update({
-    "font.size": 11, "axes.titlesize": 12, "axes.labelsize": 11, "legend.fontsize": 10,
-    "axes.grid": True, "grid.alpha": 0.3, "savefig.dpi": 100,
-})
 
 
 def read(name):
@@ -360,6 +366,7 @@ def main():
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--output", default=DEFAULT_OUTPUT, help="folder of the figures")
     args = parser.parse_args()
+    import_matplotlib()
     os.makedirs(args.output, exist_ok=True)
     pendubot_returns(args.output)
     pendubot_gp_mi_fresh(args.output)

@@ -15,10 +15,10 @@ best one apart: how many, the fraction whose real return fell inside the model's
 the median gap predicted - real return (drops report's numbers). Standard library only.
 """
 
+import argparse
 import csv
 import random
 import statistics
-import sys
 from collections import defaultdict
 
 import calibration as cal
@@ -36,20 +36,24 @@ def bootstrap_median(values, rng):
 
 
 def main():
-    args = [a for a in sys.argv[1:] if not a.startswith("--episodes")]
-    episodes = [7, 8, 9, 10]
-    for a in sys.argv[1:]:
-        if a.startswith("--episodes"):
-            if "=" not in a:
-                raise SystemExit("speeds.py: --episodes=LIST, e.g. --episodes=4,8")
-            episodes = [int(e) for e in a.split("=", 1)[1].split(",")]
-    if not args or len(args) > 2:
-        print(__doc__, file=sys.stderr)
-        raise SystemExit(2)
-    campaign = args[1] if len(args) == 2 else None
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("summary", metavar="SUMMARY.csv", help="a hexapod summary CSV")
+    parser.add_argument("campaign", metavar="CAMPAIGN", nargs="?",
+                        help="only the rows of this campaign")
+    parser.add_argument("--episodes", default="7,8,9,10", metavar="LIST",
+                        help="comma-separated episodes, e.g. 4,8 (default 7,8,9,10)")
+    args = parser.parse_args()
+    try:
+        episodes = [int(e) for e in args.episodes.split(",")]
+    except ValueError:
+        parser.error(f"--episodes {args.episodes}: a comma-separated list of episodes, e.g. 4,8")
+    if min(episodes) < 1:
+        parser.error(f"--episodes {args.episodes}: an episode is 1 or more")
+    campaign = args.campaign
     runs = defaultdict(dict)  # (variant, damage, seed) -> {episode: (speed, fell)}
     calibration = cal.new_table()  # (variant, damage) -> (new policies, replays, episode 1)
-    with open(args[0], newline="") as f:
+    with open(args.summary, newline="") as f:
         for row in csv.DictReader(f):
             if campaign is not None and row["campaign"] != campaign:
                 continue
@@ -58,7 +62,7 @@ def main():
             runs[key][int(row["episode"])] = (float(row["speed_m_s"]), fell)
             cal.add(calibration, key[:2], row)
     if not runs:
-        raise SystemExit(f"{args[0]}: no runs" + (f" of campaign {campaign}" if campaign else ""))
+        raise SystemExit(f"{args.summary}: no runs" + (f" of campaign {campaign}" if campaign else ""))
     groups = defaultdict(list)
     for (variant, damage, seed), eps in sorted(runs.items()):
         groups[(variant, damage)].append((seed, [eps[e] for e in sorted(eps)]))

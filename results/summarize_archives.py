@@ -29,10 +29,10 @@ configs/campaign-hexapod.yaml (campaign `hexapod`), those of hexapod-walls and h
 OUTPUT_DIR defaults to the summaries/ folder beside this script. Standard library only.
 """
 
+import argparse
 import csv
 import json
 import os
-import sys
 
 PENDUBOT_PHI = ["m1", "m2", "l1", "l2", "b1", "b2"]
 
@@ -244,12 +244,14 @@ def write(path, columns, rows):
 
 
 def main():
-    if len(sys.argv) not in (2, 3):
-        print(__doc__, file=sys.stderr)
-        sys.exit(2)
-    archives = sys.argv[1]
-    out = sys.argv[2] if len(sys.argv) == 3 else os.path.join(
-        os.path.dirname(os.path.abspath(__file__)), "summaries")
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("archives", metavar="ARCHIVES_DIR", help="the archives unpacked side by side")
+    parser.add_argument("out", metavar="OUTPUT_DIR", nargs="?",
+                        default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "summaries"),
+                        help="where the summaries go (default: summaries/ beside this script)")
+    args = parser.parse_args()
+    archives, out = args.archives, args.out
     os.makedirs(out, exist_ok=True)
     write(os.path.join(out, "pendubot.csv"), PENDUBOT_COLUMNS,
           [r for c in PENDUBOT_CAMPAIGNS for r in episode_rows(archives, c, "pendubot")])

@@ -14,10 +14,10 @@ must be complete.
 Standard library only.
 """
 
+import argparse
 import csv
 import json
 import os
-import sys
 
 import summarize_archives as sa
 
@@ -43,10 +43,12 @@ def ite_evaluations(run_dir):
 
 
 def main():
-    if len(sys.argv) != 3:
-        print(__doc__, file=sys.stderr)
-        sys.exit(2)
-    campaign_dir, output = sys.argv[1], sys.argv[2]
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("campaign_dir", metavar="CAMPAIGN_DIR", help="a campaign directory (with runs/)")
+    parser.add_argument("output", metavar="OUTPUT.csv", help="the summary to write")
+    args = parser.parse_args()
+    campaign_dir, output = args.campaign_dir, args.output
     campaign_dir = os.path.normpath(campaign_dir)
     parent, campaign = os.path.split(campaign_dir)
     if not os.path.isdir(os.path.join(campaign_dir, "runs")):

@@ -15,9 +15,9 @@ inside the model's 5-95 % band, and the median gap predicted - real (drops repor
 Standard library only.
 """
 
+import argparse
 import csv
 import statistics
-import sys
 from collections import defaultdict
 
 import calibration as cal
@@ -29,18 +29,20 @@ PRIORS = {"tunable-useful": "A", "tunable": "B", "tunable-misleading": "C", "par
 
 
 def main():
-    args = [a for a in sys.argv[1:] if not a.startswith("--by")]
-    by = 8
-    for a in sys.argv[1:]:
-        if a.startswith("--by"):
-            by = int(a.split("=", 1)[1]) if "=" in a else None
-    if by is None or not args or len(args) > 2:
-        print(__doc__, file=sys.stderr)
-        raise SystemExit(2)
-    campaign = args[1] if len(args) == 2 else None
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("summary", metavar="SUMMARY.csv", help="a pendubot summary CSV")
+    parser.add_argument("campaign", metavar="CAMPAIGN", nargs="?",
+                        help="only the rows of this campaign")
+    parser.add_argument("--by", type=int, default=8, metavar="EPISODE",
+                        help="count the swing-ups by this episode (default 8)")
+    args = parser.parse_args()
+    if args.by < 1:
+        parser.error(f"--by {args.by}: an episode is 1 or more")
+    by, campaign = args.by, args.campaign
     runs = defaultdict(dict)  # (variant, prior, seed) -> {episode: return}
     calibration = cal.new_table()  # (variant, prior) -> (new policies, replays, episode 1)
-    with open(args[0], newline="") as f:
+    with open(args.summary, newline="") as f:
         for row in csv.DictReader(f):
             if campaign is not None and row["campaign"] != campaign:
                 continue
@@ -48,7 +50,7 @@ def main():
             runs[key][int(row["episode"])] = float(row["real_return"])
             cal.add(calibration, key[:2], row)
     if not runs:
-        raise SystemExit(f"{args[0]}: no runs" + (f" of campaign {campaign}" if campaign else ""))
+        raise SystemExit(f"{args.summary}: no runs" + (f" of campaign {campaign}" if campaign else ""))
     groups = defaultdict(list)
     for (variant, prior, seed), episodes in sorted(runs.items()):
         returns = [episodes[e] for e in sorted(episodes)]

@@ -1,0 +1,153 @@
+#!/usr/bin/env python3
+"""The scripts of results/ on summaries built here, whose answers follow from their construction:
+swing_ups.py counts swing-ups, held swing-ups and calibration; speeds.py takes medians and
+bootstrap intervals; every script answers --help and rejects a bad argument with a usage error
+(exit 2). Standard library only (unittest), like the scripts.
+
+  python3 tests/results_scripts_test.py RESULTS_DIR
+"""
+
+import csv
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+RESULTS = None  # set from the command line
+SCRIPTS = ["check_manifest.py", "draw_figures.py", "speeds.py", "summarize_archives.py",
+           "summarize_campaign.py", "swing_ups.py"]
+
+
+def run(script, *args):
+    """(exit code, stdout, stderr) of results/SCRIPT with args."""
+    p = subprocess.run([sys.executable, os.path.join(RESULTS, script), *args],
+                       capture_output=True, text=True, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def write_summary(path, columns, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+
+
+def table_row(out, first_cells):
+    """The cells of the first markdown row of out that starts with first_cells."""
+    for line in out.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if cells[:len(first_cells)] == first_cells:
+            return cells
+    raise AssertionError(f"no row {first_cells} in:\n{out}")
+
+
+class Help(unittest.TestCase):
+    def test_every_script_answers_help(self):
+        for script in SCRIPTS:
+            code, out, _ = run(script, "--help")
+            self.assertEqual(code, 0, script)
+            self.assertIn("usage:", out, script)
+
+    def test_a_bad_argument_is_a_usage_error(self):
+        for script, args in [("swing_ups.py", ["x.csv", "--by", "0"]),
+                             ("swing_ups.py", ["x.csv", "--by", "eight"]),
+                             ("speeds.py", ["x.csv", "--episodes", "4,eight"]),
+                             ("summarize_campaign.py", ["only-one-argument"]),
+                             ("check_manifest.py", ["a", "b"])]:
+            code, _, err = run(script, *args)
+            self.assertEqual(code, 2, (script, args))
+            self.assertIn("error:", err, (script, args))
+
+
+class SwingUps(unittest.TestCase):
+    COLUMNS = ["campaign", "run", "variant", "prior", "seed", "episode", "real_return",
+               "calibration_quantile", "calibration_inside_band", "calibration_gap",
+               "calibration_replay"]
+    # Prior D, 10 episodes. Swing-up: a return >= 14; held: never more than 2 below the best
+    # return from the swing-up on.
+    RETURNS = {
+        1: [1, 3, 15, 16, 17, 17, 16, 16, 17, 17],  # up at 3, held (at most 1 below its best)
+        2: [1, 2, 3, 4, 5, 14, 20, 17, 20, 20],      # up at 6, not held (17 < 20 - 2)
+        3: [1, 2, 3, 4, 5, 6, 7, 8, 14, 20],         # up at 9: not by episode 8
+        4: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10],          # never
+    }
+
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory()
+        self.path = os.path.join(self.dir.name, "summary.csv")
+        rows = []
+        for seed, returns in self.RETURNS.items():
+            for episode, r in enumerate(returns, 1):
+                row = {"campaign": "c", "run": f"partially-tunable-seed{seed}", "variant": "gp_mi",
+                       "prior": "partially-tunable", "seed": seed, "episode": episode,
+                       "real_return": r}
+                if episode >= 2:  # new policies; seed 1's inside the band in episodes 2-5 only
+                    inside = seed == 1 and episode <= 5
+                    row.update(calibration_quantile=0.5 if inside else 1.0,
+                               calibration_inside_band=int(inside), calibration_gap=seed,
+                               calibration_replay=0)
+                rows.append(row)
+        write_summary(self.path, self.COLUMNS, rows)
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def test_swing_ups_by_episode_8_and_held(self):
+        code, out, err = run("swing_ups.py", self.path)
+        self.assertEqual(code, 0, err)
+        cells = table_row(out, ["gp_mi", "D (partially-tunable)"])
+        self.assertEqual(cells[2:6], ["4", "2/4", "1/2", "3 6 9 -"])
+        self.assertEqual(float(cells[6]), 12.0)  # median of 16, 17, 8, 8 at episode 8
+        self.assertEqual(float(cells[7]), 18.5)  # median of 17, 20, 20, 10 at episode 10
+
+    def test_by_a_later_episode(self):
+        code, out, err = run("swing_ups.py", self.path, "--by", "10")
+        self.assertEqual(code, 0, err)
+        self.assertEqual(table_row(out, ["gp_mi", "D (partially-tunable)"])[3:5], ["3/4", "2/3"])
+
+    def test_calibration_of_new_policies(self):
+        code, out, err = run("swing_ups.py", self.path)
+        self.assertEqual(code, 0, err)
+        cells = table_row(out.split("new policies", 1)[1], ["gp_mi", "D (partially-tunable)"])
+        # 4 runs x 9 new policies, 4 inside the band; gaps 1, 2, 3, 4 nine times each
+        self.assertEqual(cells[2:6], ["36", "11 %", "11 %", "+2.50"])
+
+    def test_an_unknown_campaign_is_an_error(self):
+        code, _, err = run("swing_ups.py", self.path, "other")
+        self.assertEqual(code, 1)
+        self.assertIn("no runs of campaign other", err)
+
+
+class Speeds(unittest.TestCase):
+    COLUMNS = ["campaign", "run", "variant", "damage", "seed", "episode", "real_return",
+               "speed_m_s"]
+
+    def test_median_and_interval(self):
+        speeds = {1: 0.10, 2: 0.20, 3: 0.30, 4: 0.40, 5: 0.50}  # at episode 2
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "hexapod.csv")
+            rows = []
+            for seed, s in speeds.items():
+                for episode, v in ((1, 0.0), (2, s)):
+                    rows.append({"campaign": "c", "run": f"seed{seed}", "variant": "gp_mi",
+                                 "damage": "leg5", "seed": seed, "episode": episode,
+                                 "real_return": -10 if seed == 5 and episode == 1 else 1,
+                                 "speed_m_s": v})
+            write_summary(path, self.COLUMNS, rows)
+            code, out, err = run("speeds.py", path, "--episodes", "2")
+        self.assertEqual(code, 0, err)
+        cell = table_row(out, ["gp_mi", "leg5", "5"])[3]
+        median, interval = cell.split(" ", 1)
+        lo, hi = (float(x) for x in interval.strip("[]").split(","))
+        self.assertEqual(float(median), 0.3)
+        self.assertTrue(0.1 <= lo < 0.3 < hi <= 0.5, cell)
+        self.assertEqual(table_row(out, ["gp_mi", "leg5", "5", "0.000* 0.500"])[4], "0")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        raise SystemExit(__doc__)
+    RESULTS = os.path.abspath(sys.argv.pop(1))
+    unittest.main()
