@@ -15,6 +15,11 @@ writes to docs/results/ (or DIR):
                                     each prior the summary holds (D and C, then A and B), with the
                                     pendubot's reflected transitions (every run and the median) and
                                     before them (the median)
+  pendubot-tolerance-returns.png    results/summaries/pendubot-gp_mi-fresh-tol9.csv and
+                                    pendubot-gp_mi-fresh-reflected.csv: GP-MI on the fresh seeds
+                                    101-120 with each prior, its phi search to a relative
+                                    tolerance of 1e-9 (every run and the median) and of 1e-4 (the
+                                    median)
   hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
                                     walking speed per episode of gp_mi, gp_prior (the runs of
                                     configs/campaign-hexapod.yaml) and IT&E, seeds 1-5, intact and
@@ -234,6 +239,31 @@ def pendubot_reflected(output, name="pendubot-gp_mi-fresh-reflected.csv",
            os.path.join(output, "pendubot-reflected-returns.png"), 2)
 
 
+def pendubot_tolerance(output, name="pendubot-gp_mi-fresh-tol9.csv",
+                       before="pendubot-gp_mi-fresh-reflected.csv"):
+    rows, old = read(name), read(before)
+    order = [PENDUBOT_PANELS[i] for i in (3, 2, 0, 1)]
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.4), sharey=True)
+    axes = axes.ravel()
+    for i, (prior, title) in enumerate(order):
+        ax = axes[i]
+        sel = [r for r in rows if r["prior"] == prior]
+        ps = sorted({int(r["seed"]) for r in sel})
+        draw_runs(ax, sel, "real_return")
+        draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
+                   "φ's search to 1e-9 (the default): median, 25–75 %", 4)
+        same = {r["seed"] for r in sel}
+        draw_curve(ax, curve([r for r in old if r["prior"] == prior and r["seed"] in same],
+                             "real_return"), "black",
+                   "to 1e-4 (the default before; the same seeds): median, 25–75 %", 3)
+        swing_up_panel(ax, f"{title} ({len(ps)} runs, seeds {ps[0]}–{ps[-1]})", rows)
+        if i % 2 == 0:
+            ax.set_ylabel("return")
+    finish(fig, axes, "Pendubot, Black-DROPS with GP-MI on fresh seeds, GP-MI's φ search to a "
+           "relative tolerance of 1e-9 and of 1e-4:\nreturn on the real system per episode",
+           os.path.join(output, "pendubot-tolerance-returns.png"), 2)
+
+
 def hexapod_speed(output):
     rows = [r for r in read("hexapod.csv") if int(r["seed"]) <= 5]
     ceilings = read("hexapod-ceiling.csv")
@@ -371,6 +401,7 @@ def main():
     pendubot_returns(args.output)
     pendubot_gp_mi_fresh(args.output)
     pendubot_reflected(args.output)
+    pendubot_tolerance(args.output)
     hexapod_speed(args.output)
     hexapod_20_seeds(args.output)
     hexapod_fresh(args.output)
