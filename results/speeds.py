@@ -18,6 +18,7 @@ the median gap predicted - real return (drops report's numbers). Standard librar
 import argparse
 import csv
 import random
+import signal
 import statistics
 from collections import defaultdict
 
@@ -90,4 +91,6 @@ def main():
     cal.print_table(calibration, "damage", digits=3)
 
 if __name__ == "__main__":
+    # a reader that stops early (| head) ends the script quietly, as it would a Unix tool
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     main()

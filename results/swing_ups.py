@@ -17,6 +17,7 @@ Standard library only.
 
 import argparse
 import csv
+import signal
 import statistics
 from collections import defaultdict
 
@@ -79,4 +80,6 @@ def main():
                     name=lambda k: f"{PRIORS[k[1]]} ({k[1]})" if k[1] in PRIORS else k[1])
 
 if __name__ == "__main__":
+    # a reader that stops early (| head) ends the script quietly, as it would a Unix tool
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     main()

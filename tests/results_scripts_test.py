@@ -2,7 +2,8 @@
 """The scripts of results/ on summaries built here, whose answers follow from their construction:
 swing_ups.py counts swing-ups, held swing-ups and calibration; speeds.py takes medians and
 bootstrap intervals; every script answers --help and rejects a bad argument with a usage error
-(exit 2). Standard library only (unittest), like the scripts.
+(exit 2); a table whose reader stops early ends without a traceback. Standard library only
+(unittest), like the scripts.
 
   python3 tests/results_scripts_test.py RESULTS_DIR
 """
@@ -113,6 +114,17 @@ class SwingUps(unittest.TestCase):
         cells = table_row(out.split("new policies", 1)[1], ["gp_mi", "D (partially-tunable)"])
         # 4 runs x 9 new policies, 4 inside the band; gaps 1, 2, 3, 4 nine times each
         self.assertEqual(cells[2:6], ["36", "11 %", "11 %", "+2.50"])
+
+    def test_a_reader_that_stops_early_gets_no_traceback(self):
+        # stdout is a pipe whose reading end is already closed, as after `| head -1`
+        read_end, write_end = os.pipe()
+        os.close(read_end)
+        try:
+            p = subprocess.run([sys.executable, os.path.join(RESULTS, "swing_ups.py"), self.path],
+                               stdout=write_end, stderr=subprocess.PIPE, text=True, timeout=120)
+        finally:
+            os.close(write_end)
+        self.assertEqual(p.stderr, "")
 
     def test_an_unknown_campaign_is_an_error(self):
         code, _, err = run("swing_ups.py", self.path, "other")
