@@ -210,58 +210,48 @@ def pendubot_gp_mi_fresh(output, name="pendubot-gp_mi-fresh.csv"):
            os.path.join(output, name.replace(".csv", "-returns.png")), 3)
 
 
-def pendubot_reflected(output, name="pendubot-gp_mi-fresh-reflected.csv",
-                       before="pendubot-gp_mi-fresh.csv"):
+def pendubot_before_after(output, name, before, label, before_label, title, png):
+    """GP-MI on fresh seeds per prior, D and C first (the priors the pendubot's last changes of
+    default were chosen for), then A and B, those the summary `name` holds: every run and the
+    median of `name`, and the median of the same seeds in `before` (the default before)."""
     rows, old = read(name), read(before)
-    # D and C first (the priors whose targets the reflected transitions were chosen for), then
-    # A and B, those the summary holds.
     order = [PENDUBOT_PANELS[i] for i in (3, 2, 0, 1)]
     panels = [(p, t) for p, t in order if any(r["prior"] == p for r in rows)]
     shape = (1, 2) if len(panels) <= 2 else (2, 2)
     fig, axes = plt.subplots(*shape, figsize=(11, 4.2 * shape[0]), sharey=True)
     axes = axes.ravel()
-    for i, (prior, title) in enumerate(panels):
+    for i, (prior, panel_title) in enumerate(panels):
         ax = axes[i]
         sel = [r for r in rows if r["prior"] == prior]
         ps = sorted({int(r["seed"]) for r in sel})
         draw_runs(ax, sel, "real_return")
-        draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
-                   "reflected transitions (the default): median, 25–75 %", 4)
+        draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"], label, 4)
         same = {r["seed"] for r in sel}
         draw_curve(ax, curve([r for r in old if r["prior"] == prior and r["seed"] in same],
-                             "real_return"), "black",
-                   "before them (exact variances; the same seeds): median, 25–75 %", 3)
-        swing_up_panel(ax, f"{title} ({len(ps)} runs, seeds {ps[0]}–{ps[-1]})", rows)
+                             "real_return"), "black", before_label, 3)
+        swing_up_panel(ax, f"{panel_title} ({len(ps)} runs, seeds {ps[0]}–{ps[-1]})", rows)
         if i % shape[1] == 0:
             ax.set_ylabel("return")
-    finish(fig, axes, "Pendubot, Black-DROPS with GP-MI on fresh seeds, with and without the "
-           "reflected transitions:\nreturn on the real system per episode",
-           os.path.join(output, "pendubot-reflected-returns.png"), 2)
+    finish(fig, axes, title, os.path.join(output, png), 2)
 
 
-def pendubot_tolerance(output, name="pendubot-gp_mi-fresh-tol9.csv",
-                       before="pendubot-gp_mi-fresh-reflected.csv"):
-    rows, old = read(name), read(before)
-    order = [PENDUBOT_PANELS[i] for i in (3, 2, 0, 1)]
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8.4), sharey=True)
-    axes = axes.ravel()
-    for i, (prior, title) in enumerate(order):
-        ax = axes[i]
-        sel = [r for r in rows if r["prior"] == prior]
-        ps = sorted({int(r["seed"]) for r in sel})
-        draw_runs(ax, sel, "real_return")
-        draw_curve(ax, curve(sel, "real_return"), COLOR["gp_mi"],
-                   "φ's search to 1e-9 (the default): median, 25–75 %", 4)
-        same = {r["seed"] for r in sel}
-        draw_curve(ax, curve([r for r in old if r["prior"] == prior and r["seed"] in same],
-                             "real_return"), "black",
-                   "to 1e-4 (the default before; the same seeds): median, 25–75 %", 3)
-        swing_up_panel(ax, f"{title} ({len(ps)} runs, seeds {ps[0]}–{ps[-1]})", rows)
-        if i % 2 == 0:
-            ax.set_ylabel("return")
-    finish(fig, axes, "Pendubot, Black-DROPS with GP-MI on fresh seeds, GP-MI's φ search to a "
-           "relative tolerance of 1e-9 and of 1e-4:\nreturn on the real system per episode",
-           os.path.join(output, "pendubot-tolerance-returns.png"), 2)
+def pendubot_reflected(output):
+    pendubot_before_after(
+        output, "pendubot-gp_mi-fresh-reflected.csv", "pendubot-gp_mi-fresh.csv",
+        "reflected transitions (the default): median, 25–75 %",
+        "before them (exact variances; the same seeds): median, 25–75 %",
+        "Pendubot, Black-DROPS with GP-MI on fresh seeds, with and without the reflected "
+        "transitions:\nreturn on the real system per episode", "pendubot-reflected-returns.png")
+
+
+def pendubot_tolerance(output):
+    pendubot_before_after(
+        output, "pendubot-gp_mi-fresh-tol9.csv", "pendubot-gp_mi-fresh-reflected.csv",
+        "φ's search to 1e-9 (the default): median, 25–75 %",
+        "to 1e-4 (the default before; the same seeds): median, 25–75 %",
+        "Pendubot, Black-DROPS with GP-MI on fresh seeds, GP-MI's φ search to a relative "
+        "tolerance of 1e-9 and of 1e-4:\nreturn on the real system per episode",
+        "pendubot-tolerance-returns.png")
 
 
 def hexapod_speed(output):
