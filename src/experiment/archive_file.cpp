@@ -75,8 +75,7 @@ void write_archive_file(const fs::path& path, const ite::Archive& archive,
 }
 
 ArchiveFile read_archive_file(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot read the archive file " + path.string());
+  std::istringstream in(read_file_text(path));
   std::vector<std::string> comments;
   ArchiveFile file;
   try {

@@ -83,7 +83,9 @@ KeyTable<BaseOptions> make_base_key_table() {
   t.add("output", [](auto& o) -> auto& { return o.output; })
       .help("parent directory of run directories");
   t.add("name", [](auto& o) -> auto& { return o.name; })
-      .help("run directory name (empty = <task>-<variant>-<prior>-seed<seed>-<date>-<time>)");
+      .help("run directory name, one directory: 1 to 200 of A-Z a-z 0-9 _ . -, the first a "
+            "letter, a digit or _ (a path goes in output; empty = "
+            "<task>-<variant>-<prior>-seed<seed>-<date>-<time>)");
   // Allowed values and help: the registry's model variants (registered_base_keys).
   t.add("model.type", [](auto& o) -> auto& { return o.model_type; })
       .type("enum")

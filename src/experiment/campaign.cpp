@@ -178,13 +178,7 @@ void settings_keys(const std::vector<std::string>& keys, const YAML::Node& n,
   }
 }
 
-bool valid_dir_name(const std::string& s) {
-  if (s.empty() || s == "." || s == "..") return false;
-  for (char c : s)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-'))
-      return false;
-  return true;
-}
+bool valid_dir_name(const std::string& s) { return is_directory_name(s); }
 
 /// Numbers compared as numbers, sequences element by element, everything else as text.
 bool same_value(const std::string& a, const std::string& b) {
@@ -364,12 +358,16 @@ CampaignSpec parse_campaign(const Registry& registry, const std::string& yaml_te
 }
 
 CampaignSpec load_campaign_file(const Registry& registry, const std::string& path, bool validate) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError("cannot read campaign file '" + path + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  std::string text;
   try {
-    return parse_campaign(registry, ss.str(), fs::path(path).stem().string(), validate);
+    text = read_file_text(path, kMaxConfigFileBytes);
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const Error& e) {
+    throw ConfigError(file_error("campaign file", e.what()));
+  }
+  try {
+    return parse_campaign(registry, text, fs::path(path).stem().string(), validate);
   } catch (const ConfigError& e) {
     throw ConfigError(path + ": " + e.what());
   }
@@ -517,9 +515,9 @@ std::optional<CampaignSpec> CampaignDirectory::read_spec(const Registry& registr
 
 std::string CampaignDirectory::run_status(const std::string& name) const {
   try {
-    std::ifstream in(run(name) / "summary.json");
-    if (!in) return "";
-    return nlohmann::json::parse(in).value("status", "");
+    const fs::path p = run(name) / "summary.json";
+    if (!fs::exists(p)) return "";
+    return nlohmann::json::parse(read_file_text(p)).value("status", "");
   } catch (const std::exception&) {
     return "";
   }

@@ -15,12 +15,23 @@
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
+#include "drops/experiment/run_directory.hpp"
 
 namespace drops::experiment {
 namespace {
 
+// A key or value as messages show it: at most 200 characters, the length said when longer (a
+// 1 MB value is not echoed whole).
+std::string shown(const std::string& text) {
+  constexpr std::size_t kMax = 200;
+  if (text.size() <= kMax) return text;
+  std::size_t cut = kMax;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // UTF-8
+  return text.substr(0, cut) + fmt::format("... ({} characters)", text.size());
+}
+
 [[noreturn]] void fail(const std::string& key, const std::string& value, const std::string& what) {
-  throw ConfigError("config key '" + key + "' = '" + value + "': " + what);
+  throw ConfigError("config key '" + shown(key) + "' = '" + shown(value) + "': " + what);
 }
 
 std::string node_text(const YAML::Node& n) {
@@ -156,7 +167,8 @@ void flatten(const YAML::Node& node, const std::string& prefix,
       try {
         k = kv.first.as<std::string>();
       } catch (const YAML::Exception&) {
-        throw ConfigError("config: a key is not a plain name: '" + node_text(kv.first) + "'");
+        throw ConfigError("config: a key is not a plain name: '" + shown(node_text(kv.first)) +
+                          "'");
       }
       const std::string key = prefix.empty() ? k : prefix + "." + k;
       if (is_key(key) || !kv.second.IsMap())
@@ -165,17 +177,21 @@ void flatten(const YAML::Node& node, const std::string& prefix,
         flatten(kv.second, key, is_key, out);
     }
   } else if (!node.IsNull()) {
-    throw ConfigError("config: the document must be a mapping of keys, got '" + node_text(node) +
-                      "'");
+    throw ConfigError("config: the document must be a mapping of keys, got '" +
+                      shown(node_text(node)) + "'");
   }
 }
 
+// A configuration file: a regular file of at most kMaxConfigFileBytes (a directory or a device
+// such as /dev/zero is refused before it is read). Throws ConfigError with the reason.
 std::string read_config_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError("cannot read config file '" + path + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  try {
+    return read_file_text(path, kMaxConfigFileBytes);
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const Error& e) {
+    throw ConfigError(file_error("config file", e.what()));
+  }
 }
 
 /// Every key of the registry: base, algorithms', every task's (for the keys of other tasks).
@@ -242,7 +258,8 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
   for (const auto& o : overrides) {
     const auto eq = o.find('=');
     if (eq == std::string::npos || eq == 0)
-      throw ConfigError("override '" + o + "': expected key=value, e.g. model.type=gp_prior");
+      throw ConfigError("override '" + shown(o) +
+                        "': expected key=value, e.g. model.type=gp_prior");
     const std::string key = o.substr(0, eq), value = o.substr(eq + 1);
     YAML::Node n =
         value.empty() ? YAML::Node(std::string()) : parse_yaml(value, "override " + key);

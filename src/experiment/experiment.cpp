@@ -1,12 +1,17 @@
 #include "drops/experiment/experiment.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "drops/core/errors.hpp"
 #include "drops/experiment/campaign.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "experiment_plugins.hpp"
 
 namespace drops::experiment {
@@ -212,8 +217,12 @@ class DirectPlugin final : public AlgorithmPlugin {
   /// theta0 from a file of one value per line. Throws ConfigError naming the file and line.
   static VectorXd read_start(const std::string& path, int n, double bound) {
     const std::string key = "config key 'direct.start' = '" + path + "': ";
-    std::ifstream in(path);
-    if (!in) throw ConfigError(key + "cannot open the file");
+    std::istringstream in;
+    try {
+      in.str(read_file_text(path, kMaxConfigFileBytes));
+    } catch (const Error& e) {
+      throw ConfigError(key + e.what());
+    }
     std::vector<double> v;
     std::string line;
     while (std::getline(in, line)) {
@@ -308,6 +317,76 @@ std::string Experiment::default_run_name(const std::string& stamp) const {
   return n;
 }
 
+bool is_directory_name(const std::string& s) {
+  if (s.empty() || s.size() > 200) return false;
+  const auto ok = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
+  };
+  if (!(std::isalnum(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
+  return std::all_of(s.begin(), s.end(), ok);
+}
+
+bool is_column_name(const std::string& s) {
+  if (s.empty() || s.size() > 64) return false;
+  const auto ok = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.';
+  };
+  if (!(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
+  return std::all_of(s.begin(), s.end(), ok);
+}
+
+namespace {
+
+// A name as a message shows it: quoted, escaped, at most 80 characters.
+std::string quoted_name(const std::string& s) {
+  std::string q = "'";
+  for (std::size_t i = 0; i < s.size() && i < 80; ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c == '\n')
+      q += "\\n";
+    else if (c < 0x20 || c >= 0x7F)
+      q += fmt::format("\\x{:02x}", c);
+    else
+      q += static_cast<char>(c);
+  }
+  return q + (s.size() > 80 ? "...'" : "'");
+}
+
+}  // namespace
+
+void check_setup_names(const std::string& task, const TaskSetup& setup, bool uses_prior) {
+  const auto fail = [&](const std::string& list, const std::string& name, const std::string& why) {
+    throw InvalidArgument("task '" + task + "': " + list + " " + quoted_name(name) + " " + why);
+  };
+  const std::string grammar =
+      "is not a column name (1 to 64 of A-Z a-z 0-9 _ ., not starting with a digit or '.')";
+  std::set<std::string> columns;
+  const auto check = [&](const std::vector<std::string>& names, const std::string& list,
+                         std::set<std::string>& seen, bool trajectory) {
+    for (const auto& n : names) {
+      if (!is_column_name(n)) fail(list, n, grammar);
+      if (trajectory)
+        for (const auto& r : reserved_trajectory_columns())
+          if (n == r) fail(list, n, "is reserved (the trajectory files' own column)");
+      if (!seen.insert(n).second)
+        fail(list, n, "is named twice (the trajectory columns and each list must be distinct)");
+    }
+  };
+  check(setup.state_names, "state name", columns, true);
+  check(setup.action_names, "action name", columns, true);
+  check(setup.state_extra_names, "state extra", columns, true);
+  std::set<std::string> metrics = {"episode", "interaction_time_s", "real_return",
+                                   "predicted_return", "solved", "phi", "model_learning_s",
+                                   "policy_optimization_s", "evaluations"};
+  check(setup.metric_names, "metric", metrics, false);
+  std::set<std::string> phi;
+  check(setup.prior_parameters.names, "prior parameter", phi, false);
+  if (uses_prior && !setup.prior_label.empty() && !is_directory_name(setup.prior_label))
+    fail("prior label", setup.prior_label,
+         "is not a directory name (1 to 200 of A-Z a-z 0-9 _ . -, the first a letter, a digit or "
+         "'_'): it names run directories");
+}
+
 Experiment make_experiment(const Registry& registry, const Settings& settings) {
   Experiment e;
   e.settings = settings;
@@ -322,6 +401,14 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
   e.threads = base.threads;
   e.output = base.output;
   e.name = base.name;
+  if (!e.name.empty() && !is_directory_name(e.name))
+    throw ConfigError("config key 'name' = " + quoted_name(e.name) +
+                      ": expected one directory name (1 to 200 of A-Z a-z 0-9 _ . -, the first a "
+                      "letter, a digit or '_'); the run directory is <output>/<name>, so a path "
+                      "goes in the key output");
+  if (e.output.find('\0') != std::string::npos)
+    throw ConfigError("config key 'output' = " + quoted_name(e.output) +
+                      ": a path cannot hold a NUL character");
   e.variant = algorithm.variant(st);
   e.setup = task.make(st);
   // Trajectory columns of a task that does not name them.
@@ -337,6 +424,7 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
     generic(e.setup.state_names, "x", e.setup.task->state_dim());
     generic(e.setup.action_names, "u", e.setup.task->action_dim());
   }
+  check_setup_names(e.task, e.setup, algorithm.uses_prior(st));
   e.runner = algorithm.make(st, e.setup);
   e.state_files = algorithm.state_files(st, e.setup);
   e.uses_prior = algorithm.uses_prior(st);

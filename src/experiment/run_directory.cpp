@@ -205,6 +205,42 @@ ReportInfo report_from_json(const nlohmann::json& j) {
 
 }  // namespace
 
+nlohmann::json task_record(const Experiment& e) {
+  const TaskSetup& s = e.setup;
+  nlohmann::json j = {{"state_names", s.state_names},
+                      {"action_names", s.action_names},
+                      {"state_extra_names", s.state_extra_names}};
+  if (s.task) {
+    j["observation_dim"] = s.task->observation_dim();
+    j["horizon"] = s.task->horizon();
+    j["dt"] = number(s.task->dt());
+    nlohmann::json x0 = nlohmann::json::array();
+    const VectorXd x = s.task->initial_state();
+    for (Eigen::Index i = 0; i < x.size(); ++i) x0.push_back(number(x[i]));
+    j["initial_state"] = x0;
+  }
+  if (s.policy) j["policy_parameters"] = s.policy->param_dim();
+  if (e.uses_prior && !s.prior_parameters.names.empty()) {
+    const auto& p = s.prior_parameters;
+    nlohmann::json params = nlohmann::json::array();
+    for (std::size_t i = 0; i < p.names.size(); ++i) {
+      nlohmann::json q = {{"name", p.names[i]},
+                          {"value", number(p.values[static_cast<Eigen::Index>(i)])}};
+      const auto t = std::find(p.tunable.begin(), p.tunable.end(), static_cast<int>(i));
+      q["tunable"] = t != p.tunable.end();
+      if (t != p.tunable.end()) {
+        const auto k = static_cast<Eigen::Index>(t - p.tunable.begin());
+        q["lower"] = number(p.lower[k]);
+        q["upper"] = number(p.upper[k]);
+      }
+      params.push_back(q);
+    }
+    j["prior_parameters"] = params;
+  }
+  for (const auto& [k, v] : s.declaration) j["declaration"][k] = v;
+  return j;
+}
+
 nlohmann::json summary_head(const Experiment& e) {
   const auto& p = e.setup.prior_parameters;
   return {{"format_version", kRunDirectoryFormatVersion},
@@ -222,26 +258,98 @@ nlohmann::json summary_head(const Experiment& e) {
           {"phi_actual", e.setup.phi_actual},
           {"state_names", e.setup.state_names},
           {"action_names", e.setup.action_names},
+          {"task_record", task_record(e)},
           {"started", now_iso()},
           {"episodes", nlohmann::json::array()}};
 }
 
-std::string read_file_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot read " + path.string());
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+namespace {
+
+std::string os_reason(int err) { return std::strerror(err); }
+
+// What a path that is not a regular file is, for messages.
+std::string file_kind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a file";
+}
+
+std::string size_text(std::uintmax_t bytes) {
+  if (bytes >= (std::uintmax_t{1} << 20))
+    return fmt::format("{:.4g} MiB", static_cast<double>(bytes) / (1 << 20));
+  return fmt::format("{} bytes", bytes);
+}
+
+// Closes a file descriptor on every path out.
+struct Fd {
+  int fd = -1;
+  ~Fd() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+}  // namespace
+
+std::string read_file_text(const fs::path& path, std::uintmax_t max_bytes) {
+  Fd f;
+  // O_NONBLOCK: opening a FIFO without a writer must not wait; the kind is checked next.
+  f.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (f.fd < 0) throw Error("cannot read " + path.string() + ": " + os_reason(errno));
+  struct stat st {};
+  if (::fstat(f.fd, &st) != 0)
+    throw Error("cannot read " + path.string() + ": " + os_reason(errno));
+  if (!S_ISREG(st.st_mode))
+    throw Error(path.string() + " is not a regular file (" + file_kind(st.st_mode) + ")");
+  const auto size = static_cast<std::uintmax_t>(st.st_size);
+  if (size > max_bytes)
+    throw Error(fmt::format("{} is larger than drops reads ({}, at most {})", path.string(),
+                            size_text(size), size_text(max_bytes)));
+  std::string text;
+  text.reserve(static_cast<std::size_t>(size));
+  char buf[65536];
+  while (true) {
+    const ssize_t n = ::read(f.fd, buf, sizeof buf);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw Error("cannot read " + path.string() + ": " + os_reason(errno));
+    }
+    if (n == 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+    // A file that grows while it is read stops at the limit too.
+    if (text.size() > max_bytes)
+      throw Error(fmt::format("{} is larger than drops reads (more than {})", path.string(),
+                              size_text(max_bytes)));
+  }
+  return text;
+}
+
+std::string file_error(const std::string& what, const std::string& message) {
+  const std::string prefix = "cannot read ";
+  if (message.rfind(prefix, 0) == 0) return prefix + what + " " + message.substr(prefix.size());
+  return what + " " + message;
 }
 
 void write_file_atomically(const fs::path& path, const std::string& text) {
   const fs::path tmp = path.string() + ".tmp";
   {
-    std::ofstream out(tmp, std::ios::trunc);
-    if (!out) throw Error("cannot write " + tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw Error("cannot write " + tmp.string());
+    Fd f;
+    f.fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (f.fd < 0) throw Error("cannot write " + tmp.string() + ": " + os_reason(errno));
+    std::size_t done = 0;
+    while (done < text.size()) {
+      const ssize_t n = ::write(f.fd, text.data() + done, text.size() - done);
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        throw Error("cannot write " + tmp.string() + ": " + os_reason(errno));
+      }
+      done += static_cast<std::size_t>(n);
+    }
+    const int fd = f.fd;
+    f.fd = -1;
+    if (::close(fd) != 0) throw Error("cannot write " + tmp.string() + ": " + os_reason(errno));
   }
   std::error_code ec;
   fs::rename(tmp, path, ec);
@@ -309,7 +417,7 @@ RunDirectory::~RunDirectory() {
 void RunDirectory::lock() {
   const fs::path p = dir_ / ".lock";
   lock_fd_ = ::open(p.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
-  if (lock_fd_ < 0) throw Error("cannot open " + p.string());
+  if (lock_fd_ < 0) throw Error("cannot open " + p.string() + ": " + os_reason(errno));
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0)
     throw RunDirectoryBusy("run directory " + dir_.string() + " is in use by another process");
 }
@@ -356,7 +464,8 @@ void RunDirectory::start(const std::string& config_yaml) {
   if (ec) throw Error("cannot create " + (dir_ / "episodes").string() + ": " + ec.message());
   write_file_atomically(dir_ / "config.yaml", config_yaml);
   episodes_csv_.open(dir_ / "episodes.csv", std::ios::trunc | std::ios::binary);
-  if (!episodes_csv_) throw Error("cannot write " + (dir_ / "episodes.csv").string());
+  if (!episodes_csv_)
+    throw Error("cannot write " + (dir_ / "episodes.csv").string() + ": " + os_reason(errno));
   const Experiment& e = experiment_;
   std::string header =
       "episode,interaction_time_s,real_return,predicted_return,solved,phi,model_learning_s,"
@@ -385,7 +494,8 @@ void RunDirectory::restart(const std::string& config_yaml) {
 void RunDirectory::append_row(const std::string& row) {
   episodes_csv_ << row;
   episodes_csv_.flush();
-  if (!episodes_csv_) throw Error("cannot write " + (dir_ / "episodes.csv").string());
+  if (!episodes_csv_)
+    throw Error("cannot write " + (dir_ / "episodes.csv").string() + ": " + os_reason(errno));
   episodes_csv_text_ += row;
 }
 
@@ -546,7 +656,10 @@ void RunDirectory::save_state(const algo::RunState& st) {
                       {"model", {{"phi", to_std(st.model.phi)}, {"h_params", h}}},
                       {"extra", extra},
                       {"data", {{"x", data_x}, {"u", data_u}, {"dx", data_dx}}},
-                      {"validation", {{"config", config}, {"sha256", files}}}};
+                      {"validation",
+                       {{"config", config},
+                        {"sha256", files},
+                        {"task", task_record(experiment_)}}}};
   // nlohmann writes the shortest decimal form that reads back to the same double, so the
   // checksum of the file read back and dumped again is this one.
   j["checksum"] = checkpoint_checksum(j);
@@ -669,6 +782,44 @@ void check_config(const fs::path& dir, const nlohmann::json& started, const std:
   }
 }
 
+/// Throws ConfigError listing what the robot of a resumed run declares differently from the run's
+/// record (checkpoint.json's validation.task), each item with both values.
+void check_task_record(const fs::path& cp_path, const nlohmann::json& recorded,
+                       const nlohmann::json& now) {
+  std::vector<std::string> diffs;
+  const auto brief = [](const nlohmann::json& v) {
+    std::string s = v.is_null() ? std::string("(none)") : v.dump();
+    return s.size() > 120 ? s.substr(0, 120) + "..." : s;
+  };
+  std::set<std::string> keys;
+  for (const auto& [k, v] : recorded.items()) keys.insert(k);
+  for (const auto& [k, v] : now.items()) keys.insert(k);
+  for (const auto& k : keys) {
+    const nlohmann::json a = recorded.contains(k) ? recorded[k] : nlohmann::json();
+    const nlohmann::json b = now.contains(k) ? now[k] : nlohmann::json();
+    if (a == b) continue;
+    if (k == "declaration" && a.is_object() && b.is_object()) {
+      std::set<std::string> dk;
+      for (const auto& [d, v] : a.items()) dk.insert(d);
+      for (const auto& [d, v] : b.items()) dk.insert(d);
+      for (const auto& d : dk) {
+        const nlohmann::json da = a.contains(d) ? a[d] : nlohmann::json();
+        const nlohmann::json db = b.contains(d) ? b[d] : nlohmann::json();
+        if (da != db) diffs.push_back(d + " " + brief(da) + " in the run, " + brief(db) + " now");
+      }
+      continue;
+    }
+    diffs.push_back(k + " " + brief(a) + " in the run, " + brief(b) + " now");
+  }
+  if (diffs.empty()) return;
+  std::string list;
+  for (const auto& d : diffs) list += (list.empty() ? "" : "; ") + d;
+  throw ConfigError("the robot differs from the run's (" + cp_path.string() +
+                    ", validation.task): " + list +
+                    ". A run continues with the robot it was started with; start a new run for "
+                    "another one");
+}
+
 /// Splits text after its first `lines` complete lines (each ending in '\n'); returns how many
 /// complete lines it found (at most `lines`) and sets *end to the offset after the last of them.
 int complete_lines(const std::string& text, int lines, std::size_t* end) {
@@ -783,6 +934,9 @@ std::unique_ptr<RunDirectory> RunDirectory::reopen(const fs::path& dir, const Ex
   const std::string config_text = read_file_text(config_path);
   check_config(dir, cp["validation"].value("config", nlohmann::json::object()), config_text,
                e.settings);
+  // The robot: a run recorded before drops recorded it (no validation.task) is not compared.
+  if (cp["validation"].contains("task"))
+    check_task_record(cp_path, cp["validation"]["task"], task_record(e));
   if (e.runner->episodes() < k)
     throw ConfigError(fmt::format(
         "{}: episodes = {}, but the run has already done {} episodes (checkpoint.json); a resumed "
@@ -1130,8 +1284,7 @@ int TrajectoryTable::column(const std::string& name) const {
 }
 
 TrajectoryTable read_trajectory_csv(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot read " + path.string());
+  std::istringstream in(read_file_text(path));
   TrajectoryTable t;
   std::string line;
   if (!std::getline(in, line)) throw Error(path.string() + " is empty");
@@ -1177,8 +1330,7 @@ fs::path episode_dir(const fs::path& run_dir, int episode) {
 }
 
 std::vector<double> read_policy_csv(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error("cannot read " + path.string());
+  std::istringstream in(read_file_text(path));
   std::vector<double> theta;
   std::string line;
   int row = 0;
@@ -1195,6 +1347,8 @@ std::vector<double> read_policy_csv(const fs::path& path) {
     }
     theta.push_back(v);
   }
+  if (theta.empty())
+    throw Error(path.string() + " holds no value (a policy file has one per line)");
   return theta;
 }
 

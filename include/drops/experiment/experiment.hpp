@@ -71,9 +71,33 @@ struct Experiment {
   std::string default_run_name(const std::string& stamp) const;
 };
 
+/// Whether `s` is a name drops accepts for one directory of its own: a run directory (key name), a
+/// prior's label in a default run name, a campaign: 1 to 200 characters of ASCII letters,
+/// digits, '_', '.' and '-', the first a letter, a digit or '_' (so never ".", "..", a hidden
+/// name, an option-like "-x", a path with '/' or an absolute path). Thread-safe.
+bool is_directory_name(const std::string& s);
+/// Whether `s` is a name drops accepts for a column of its files (a state, an action, a state
+/// extra, a metric, a prior parameter phi_i): 1 to 64 characters of ASCII letters, digits, '_'
+/// and '.', the first a letter or '_' (e.g. "theta1", "Link2.mass"). Thread-safe.
+bool is_column_name(const std::string& s);
+/// The trajectory files' own columns, which no state, action or extra may be named: "t" and
+/// "reward".
+inline const std::vector<std::string>& reserved_trajectory_columns() {
+  static const std::vector<std::string> k = {"t", "reward"};
+  return k;
+}
+/// Checks the names of a task's files (TaskSetup): state, action and extra names, metric names
+/// and the prior's parameter names follow is_column_name; the trajectory columns (states,
+/// actions, extras) are distinct and none is reserved; metric and parameter names are distinct;
+/// the prior's label follows is_directory_name when `uses_prior`. Throws InvalidArgument naming
+/// the task, the list and the name. Thread-safe.
+void check_setup_names(const std::string& task, const TaskSetup& setup, bool uses_prior);
+
 /// Builds the experiment of validated settings (load_settings): the task (TaskPlugin::make) and
 /// the algorithm (AlgorithmPlugin::make). Throws ConfigError for combinations the schema cannot
-/// check alone (the message names the key).
+/// check alone (the message names the key), among them a key name that is not a directory name
+/// (is_directory_name) or an output path with a NUL character, and InvalidArgument for a task
+/// whose names break the run files (check_setup_names).
 Experiment make_experiment(const Registry& registry, const Settings& settings);
 
 /// The options of Algorithm 1 from settings (model.*, policy.bound, optimizer.*, rollouts.*,

@@ -182,6 +182,11 @@ struct TaskSetup {
   /// the cost's target and distance, Sigma_0; read by pilco and pilco_prior). An algorithm
   /// refuses a task without its entry with a ConfigError.
   AlgorithmData algorithm_data;
+  /// What the task declares beyond what the library reads from task, policy and prior (task_record
+  /// in run_directory.hpp), as name -> text: e.g. a task written in Python records its classes,
+  /// its policy's max_action and observation scale. Recorded in the run directory and compared
+  /// when a run is resumed. May be empty.
+  std::map<std::string, std::string> declaration;
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };

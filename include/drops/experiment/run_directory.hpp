@@ -64,9 +64,29 @@ void check_run_directory_format(const std::filesystem::path& dir);
 /// the trajectory columns' names, the start time and no episode. read_run needs every member.
 /// Thread-safe.
 nlohmann::json summary_head(const Experiment& e);
-/// The whole content of the file at path (binary). Throws drops::Error "cannot read PATH" when
-/// it cannot be opened. Thread-safe.
-std::string read_file_text(const std::filesystem::path& path);
+/// What the run's robot declares, recorded in summary.json ("task_record") and checkpoint.json
+/// (validation.task) and compared by RunDirectory::reopen, so that a run is never continued with
+/// another robot: the trajectory columns (state, action and extra names), observation_dim,
+/// horizon, dt (s), the initial state, the policy's parameter count, the prior's parameters
+/// (names, starting values, bounds of the tunable ones, which are tunable) and
+/// TaskSetup::declaration. Thread-safe.
+nlohmann::json task_record(const Experiment& e);
+
+/// The largest run file drops reads whole (episodes.csv, summary.json, checkpoint.json, a
+/// trajectory or policy file): 256 MiB.
+inline constexpr std::uintmax_t kMaxRunFileBytes = std::uintmax_t{256} << 20;
+/// The largest configuration or campaign file drops reads: 16 MiB.
+inline constexpr std::uintmax_t kMaxConfigFileBytes = std::uintmax_t{16} << 20;
+/// The whole content of the regular file at path (binary), at most max_bytes. Throws
+/// drops::Error naming the file before reading anything when it is not a regular file (a
+/// directory, a device such as /dev/zero, a FIFO: "PATH is not a regular file (a directory)") or
+/// larger than max_bytes, and "cannot read PATH: <the operating system's reason>" when it cannot
+/// be opened or read (symbolic links are followed). Thread-safe.
+std::string read_file_text(const std::filesystem::path& path,
+                           std::uintmax_t max_bytes = kMaxRunFileBytes);
+/// read_file_text's message about a file of the kind `what` (e.g. "config file"): "cannot read
+/// config file PATH: <reason>", "config file PATH is not a regular file (...)". Thread-safe.
+std::string file_error(const std::string& what, const std::string& message);
 /// Writes text to path through path.tmp and a rename, so a reader or a crash never sees a partial
 /// file. Throws drops::Error naming the file when it cannot be written or renamed.
 void write_file_atomically(const std::filesystem::path& path, const std::string& text);
