@@ -26,6 +26,8 @@ from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDir
                      RunDirectoryDamaged, RunOutcome)
 from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec
 
+__version__ = _drops.__version__  # drops's version (CHANGELOG.md), the C++ library's
+
 __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
     "read_trajectory", "read_policy", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
@@ -61,12 +63,50 @@ def _overrides(overrides, extra):
             result.append(o)
     for key, value in extra.items():
         if value is not None:
+            if isinstance(value, _os.PathLike):
+                value = _path(value, key)
             result.append(f"{key}={_yaml_value(value)}")
+    for o in result:
+        if "\0" in o:
+            raise ValueError(f"overrides: {o[:80]!r} holds a NUL character")
+        try:
+            o.encode("utf-8")
+        except UnicodeEncodeError:
+            raise ValueError(f"overrides: {o[:80]!r} is not valid Unicode text (a lone "
+                             "surrogate)") from None
     return result
 
 
-def _path(p):
-    return "" if p is None else _os.fspath(p)
+def _path(p, what="path"):
+    """A str or path-like as the str drops's C++ side takes; TypeError for another type,
+    ValueError for a NUL character (no operating system takes one in a path)."""
+    if p is None:
+        return ""
+    try:
+        s = _os.fspath(p)
+    except TypeError:
+        raise TypeError(f"{what}: expected a str or path-like, got {type(p).__name__}") from None
+    if isinstance(s, bytes):
+        s = _os.fsdecode(s)
+    if "\0" in s:
+        raise ValueError(f"{what} = {s[:80]!r}: a path cannot hold a NUL character")
+    try:
+        s.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError(f"{what} = {s[:80]!r}: not valid Unicode text (a lone surrogate)") \
+            from None
+    return s
+
+
+def _progress(progress):
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress: expected None or a callable taking each line (str), got "
+                        f"{type(progress).__name__} {progress!r:.80}")
+    return progress
+
+
+def _builtin_tasks():
+    return tuple(_drops._tasks())
 
 
 def run(config=None, overrides=None, *, seed=None, threads=None, output=None, name=None,
@@ -111,12 +151,13 @@ def run(config=None, overrides=None, *, seed=None, threads=None, output=None, na
     """
     args = _overrides(overrides, {"seed": seed, "threads": threads, "output": output,
                                   "name": name})
+    config, progress = _path(config, "config"), _progress(progress)
     if task is None:
         if system is not None or prior is not None:
             raise TypeError("system= and prior= need task= (your own robot: docs/python.md)")
-        return _drops._run(_path(config), args, bool(quiet), progress)
-    spec = _robot_spec(task, system, prior)
-    return _drops._run_task(spec, task, system, prior, _path(config), args, bool(quiet), progress)
+        return _drops._run(config, args, bool(quiet), progress)
+    spec = _robot_spec(task, system, prior, _builtin_tasks())
+    return _drops._run_task(spec, task, system, prior, config, args, bool(quiet), progress)
 
 
 def resume(directory, overrides=None, *, threads=None, quiet=False, progress=None, task=None,
@@ -138,11 +179,11 @@ def resume(directory, overrides=None, *, threads=None, quiet=False, progress=Non
     run's task.
     """
     args = _overrides(overrides, {"threads": threads})
+    directory, progress = _path(directory, "directory"), _progress(progress)
     if task is None:
-        return _drops._resume(_path(directory), args, bool(quiet), progress)
-    spec = _robot_spec(task, system, prior)
-    return _drops._resume_task(spec, task, system, prior, _path(directory), args, bool(quiet),
-                               progress)
+        return _drops._resume(directory, args, bool(quiet), progress)
+    spec = _robot_spec(task, system, prior, _builtin_tasks())
+    return _drops._resume_task(spec, task, system, prior, directory, args, bool(quiet), progress)
 
 
 def config(config=None, overrides=None):
@@ -151,7 +192,7 @@ def config(config=None, overrides=None):
 
     config, overrides: as for run(). Raises ConfigError as run() does.
     """
-    return _drops._config(_path(config), _overrides(overrides, {}))
+    return _drops._config(_path(config, "config"), _overrides(overrides, {}))
 
 
 def schema(task=None):
@@ -188,14 +229,14 @@ def read_trajectory(path):
     float64, one row per line, NaN for an empty cell. Raises Error naming the file when it cannot
     be read or a row has another number of cells than the header.
     """
-    columns, data = _drops._read_trajectory(_path(path))
+    columns, data = _drops._read_trajectory(_path(path, "path"))
     return list(columns), data
 
 
 def read_policy(path):
     """Reads a policy file (episodes/NNN/policy.csv): theta, an array (P,) of float64 (the policy's
     parameters, in [-policy.bound, policy.bound]). Raises Error naming the file (and the line)."""
-    return _drops._read_policy(_path(path))
+    return _drops._read_policy(_path(path, "path"))
 
 
 class Trajectory:
@@ -310,4 +351,4 @@ def read_run(directory):
     of another run-directory format version, has status "unreadable" and the reason in `error`.
     Raises Error only when `directory` is not a directory.
     """
-    return Run(_drops._read_run(_path(directory)))
+    return Run(_drops._read_run(_path(directory, "directory")))

@@ -19,6 +19,7 @@ that the callback may keep or modify.
 """
 
 import math as _math
+import re as _re
 from dataclasses import dataclass as _dataclass
 
 import numpy as _np
@@ -189,11 +190,98 @@ class Prior:
         """Raises ValueError when phi (P,) is outside the simulator's domain. Default: any."""
 
 
-def _names(value, what):
-    names = [str(n) for n in (value or ())]
+# drops's grammars (C++: drops::experiment::is_column_name, is_directory_name), checked here so
+# that the error names the attribute.
+_COLUMN_NAME = _re.compile(r"[A-Za-z_][A-Za-z0-9_.]{0,63}")
+_DIRECTORY_NAME = _re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,199}")
+_TASK_NAME = _re.compile(r"[a-z0-9_]{1,64}")
+_RESERVED_COLUMNS = ("t", "reward")
+# The ranges of a Task's integers (policy.hidden_units: the key's range).
+_MAX_HORIZON = 1_000_000
+_MAX_DIM = 100_000
+_MAX_HIDDEN_UNITS = 1000
+
+
+def _shown(value):
+    """repr(value), at most 80 characters, for messages."""
+    r = repr(value)
+    return r if len(r) <= 80 else r[:77] + "..."
+
+
+def _text(value, what, limit=200):
+    """A str that encodes as UTF-8 (no lone surrogate), without NUL or a line break."""
+    if not isinstance(value, str):
+        raise TypeError(f"{what}: expected a str, got {type(value).__name__} {_shown(value)}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError(f"{what} = {_shown(value)}: not valid Unicode text (a lone surrogate)") \
+            from None
+    if any(c in value for c in "\0\n\r") or len(value) > limit:
+        raise ValueError(f"{what} = {_shown(value)}: expected at most {limit} characters, without "
+                         "NUL or a line break")
+    return value
+
+
+def _names(value, what, seen):
+    """A list of column names (drops's grammar), each new to `seen` (name -> where it was)."""
+    if isinstance(value, (str, bytes)) or value is None:
+        raise TypeError(f"{what}: expected a list of names, got {_shown(value)}")
+    names = list(value)
     if not names:
         raise ValueError(f"{what}: expected at least one name")
+    for n in names:
+        if not isinstance(n, str) or not _COLUMN_NAME.fullmatch(n):
+            raise ValueError(f"{what}: {_shown(n)} is not a column name: 1 to 64 of A-Z a-z 0-9 _ "
+                             ". (the first a letter or _); the run's files name their columns "
+                             "with it")
+        if n in _RESERVED_COLUMNS:
+            raise ValueError(f"{what}: {n!r} is reserved (the trajectory files' own columns are "
+                             f"{', '.join(_RESERVED_COLUMNS)})")
+        if n in seen:
+            raise ValueError(f"{what}: {n!r} is named twice (already in {seen[n]}); the columns "
+                             "of a trajectory must be distinct")
+        seen[n] = what
     return names
+
+
+def _integer(value, what, lo, hi):
+    """An int in [lo, hi]: an int or an integral number (not a bool), never truncated."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, _np.integer, _np.floating)):
+        raise TypeError(f"{what} = {_shown(value)}: expected an integer")
+    if isinstance(value, (float, _np.floating)) and not float(value).is_integer():
+        raise ValueError(f"{what} = {_shown(value)}: expected an integer (drops does not round)")
+    n = int(value)
+    if not lo <= n <= hi:
+        raise ValueError(f"{what} = {_shown(value)}: expected an integer in [{lo}, {hi}]")
+    return n
+
+
+def _real(value, what, lo=-_math.inf, hi=_math.inf, positive=False):
+    """A finite float in [lo, hi] (> 0 when `positive`)."""
+    if isinstance(value, bool):
+        raise TypeError(f"{what} = {value}: expected a number")
+    try:
+        x = float(value)
+    except OverflowError:
+        raise ValueError(f"{what} = {_shown(value)}: too large for a float64") from None
+    except (TypeError, ValueError):
+        raise TypeError(f"{what} = {_shown(value)}: expected a number") from None
+    if not _math.isfinite(x) or not lo <= x <= hi or (positive and not x > 0):
+        bound = "> 0 and finite" if positive else f"finite, in [{lo}, {hi}]"
+        raise ValueError(f"{what} = {_shown(value)}: expected a number {bound}")
+    return x
+
+
+def _array(value, what, n):
+    """A finite float64 array of n entries."""
+    try:
+        a = _np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{what}: expected {n} finite numbers, got {_shown(value)}") from None
+    if a.shape != (n,) or not _np.all(_np.isfinite(a)):
+        raise ValueError(f"{what}: expected {n} finite numbers, got {_shown(value)}")
+    return a
 
 
 def _reflection_spec(value, E, A, tname):
@@ -222,9 +310,10 @@ def _reflection_spec(value, E, A, tname):
             "action_sign": field(value.action_sign, A, "action_sign", True)}
 
 
-def _robot_spec(task, system, prior):
+def _robot_spec(task, system, prior, builtin_tasks=()):
     """Checks the user's objects and returns what the C++ side reads (a dict); raises TypeError
-    or ValueError naming the attribute."""
+    or ValueError naming the attribute (docs/python.md, "What drops refuses"). builtin_tasks: the
+    names a Python task may not take."""
     tname = type(task).__name__
     if not isinstance(task, Task):
         raise TypeError(f"task: expected a drops.Task (subclass it), got {tname}")
@@ -233,67 +322,103 @@ def _robot_spec(task, system, prior):
                         f"got {type(system).__name__}")
     if prior is not None and not isinstance(prior, Prior):
         raise TypeError(f"prior: expected a drops.Prior or None, got {type(prior).__name__}")
-    name = str(task.name)
-    if not name or not all(c.isdigit() or c == "_" or ("a" <= c <= "z") for c in name):
-        raise ValueError(f"{tname}.name = {name!r}: expected [a-z0-9_]+")
-    state_names = _names(task.state_names, f"{tname}.state_names")
-    action_names = _names(task.action_names, f"{tname}.action_names")
+    name = task.name
+    if not isinstance(name, str) or not _TASK_NAME.fullmatch(name):
+        raise ValueError(f"{tname}.name = {_shown(name)}: expected 1 to 64 of [a-z0-9_] (it names "
+                         "the task key and run directories)")
+    if name in builtin_tasks:
+        raise ValueError(f"{tname}.name = {name!r}: the name of a built-in task (reports would "
+                         f"mix their runs); choose another (built-in: {', '.join(builtin_tasks)})")
+    columns = {}
+    state_names = _names(task.state_names, f"{tname}.state_names", columns)
+    action_names = _names(task.action_names, f"{tname}.action_names", columns)
     E, A = len(state_names), len(action_names)
 
     def units(value, n, what):
-        u = [""] * n if value is None else [str(v) for v in value]
+        if value is None:
+            return [""] * n
+        if isinstance(value, (str, bytes)):
+            raise TypeError(f"{tname}.{what}: expected a list of {n} units, got {_shown(value)}")
+        u = [_text(v, f"{tname}.{what}[{i}]", 64) for i, v in enumerate(value)]
         if len(u) != n:
             raise ValueError(f"{tname}.{what}: expected {n} units, got {len(u)}")
         return u
 
-    O = int(task.observation_dim)
-    if O < 1:
-        raise ValueError(f"{tname}.observation_dim = {task.observation_dim}: expected >= 1")
-    dt, H = float(task.dt), int(task.horizon)
-    if not dt > 0:
-        raise ValueError(f"{tname}.dt = {task.dt}: expected a control period > 0 (s)")
-    if H < 1:
-        raise ValueError(f"{tname}.horizon = {task.horizon}: expected >= 1 steps")
-    x0 = _np.asarray(task.initial_state(), dtype=float)
+    O = _integer(task.observation_dim, f"{tname}.observation_dim", 1, _MAX_DIM)
+    dt = _real(task.dt, f"{tname}.dt (the control period, s)", positive=True)
+    H = _integer(task.horizon, f"{tname}.horizon (steps per episode)", 1, _MAX_HORIZON)
+    hidden = _integer(task.hidden_units, f"{tname}.hidden_units", 1, _MAX_HIDDEN_UNITS)
+    max_action = _real(task.max_action, f"{tname}.max_action", positive=True)
+    x0 = task.initial_state()
+    try:
+        x0 = _np.asarray(x0, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{tname}.initial_state() returned {_shown(x0)}, expected ({E},) finite "
+                         "values") from None
     if x0.shape != (E,) or not _np.all(_np.isfinite(x0)):
         raise ValueError(f"{tname}.initial_state() returned shape {x0.shape}, expected ({E},) "
                          "finite values")
     scale = _np.ones(O) if task.observation_scale is None else \
-        _np.asarray(task.observation_scale, dtype=float)
-    if scale.shape != (O,) or _np.any(scale == 0):
+        _array(task.observation_scale, f"{tname}.observation_scale", O)
+    if _np.any(scale == 0):
         raise ValueError(f"{tname}.observation_scale: expected {O} non-zero divisors, got "
                          f"{scale.tolist()}")
-    if not float(task.max_action) > 0:
-        raise ValueError(f"{tname}.max_action = {task.max_action}: expected > 0")
     reflection = _reflection_spec(task.reflection, E, A, tname)
-    params = list(prior.parameters) if prior is not None else []
     pname = type(prior).__name__
-    for p in params:
+    params = []
+    if prior is not None:
+        if isinstance(prior.parameters, (str, bytes)):
+            raise TypeError(f"{pname}.parameters: expected a list of drops.Parameter")
+        params = list(prior.parameters)
+        if not params:
+            raise ValueError(f"{pname}.parameters: expected at least one drops.Parameter")
+        label = prior.label
+        if not isinstance(label, str) or not _DIRECTORY_NAME.fullmatch(label):
+            raise ValueError(f"{pname}.label = {_shown(label)}: expected 1 to 200 of A-Z a-z 0-9 "
+                             "_ . - (the first a letter, a digit or _): it names run "
+                             "directories")
+    seen_params = {}
+    values, lower, upper, actual = [], [], [], []
+    for i, p in enumerate(params):
         if not isinstance(p, Parameter):
-            raise TypeError(f"{pname}.parameters: expected drops.Parameter, got {p!r}")
-        if p.tunable and not (p.lower <= p.value <= p.upper and _math.isfinite(p.lower)
-                              and _math.isfinite(p.upper)):
+            raise TypeError(f"{pname}.parameters[{i}]: expected drops.Parameter, got {_shown(p)}")
+        _names([p.name], f"{pname}.parameters", seen_params)
+        what = f"{pname}.parameters: {p.name}"
+        values.append(_real(p.value, f"{what}.value"))
+        lower.append(-_math.inf if p.lower == -_math.inf else _real(p.lower, f"{what}.lower"))
+        upper.append(_math.inf if p.upper == _math.inf else _real(p.upper, f"{what}.upper"))
+        if p.tunable and not (_math.isfinite(lower[-1]) and _math.isfinite(upper[-1])
+                              and lower[-1] <= values[-1] <= upper[-1]):
             raise ValueError(f"{pname}.parameters: {p.name} = {p.value} must lie in finite bounds "
                              f"[{p.lower}, {p.upper}]")
-    if prior is not None and not params:
-        raise ValueError(f"{pname}.parameters: expected at least one drops.Parameter")
-    actual = [float(p.actual) for p in params]
+        a = float(p.actual) if not isinstance(p.actual, bool) else _math.nan
+        actual.append(a if _math.isfinite(a) else _math.nan)
+        _text(p.unit, f"{what}.unit", 64)
+    # What the library cannot read from the task, the policy and the prior (TaskSetup::
+    # declaration): recorded in the run and compared on resume.
+    declaration = {
+        "python.max_action": repr(max_action),
+        "python.observation_scale": repr(scale.tolist()),
+    }
+    if reflection is not None:
+        declaration["python.reflection"] = repr(reflection)
     return {
         "name": name,
         "description": f"a task written in Python ({tname})",
         "task_class": tname,
-        "prior_label": str(getattr(prior, "label", "prior")) if prior is not None else "none",
+        "system_class": type(system).__name__,
+        "prior_class": pname if prior is not None else "Prior",
+        "declaration": declaration,
+        "prior_label": prior.label if prior is not None else "none",
         "state_names": state_names, "action_names": action_names,
         "state_units": units(task.state_units, E, "state_units"),
         "action_units": units(task.action_units, A, "action_units"),
         "observation_dim": O, "horizon": H, "dt": dt, "initial_state": x0.tolist(),
-        "max_action": float(task.max_action), "observation_scale": scale.tolist(),
-        "hidden_units": int(task.hidden_units),
+        "max_action": max_action, "observation_scale": scale.tolist(),
+        "hidden_units": hidden,
         "reflection": reflection,
         "phi_names": [p.name for p in params], "phi_units": [p.unit for p in params],
-        "phi_values": [float(p.value) for p in params],
-        "phi_lower": [float(p.lower) for p in params],
-        "phi_upper": [float(p.upper) for p in params],
+        "phi_values": values, "phi_lower": lower, "phi_upper": upper,
         "phi_tunable": [bool(p.tunable) for p in params],
         "phi_actual": [] if any(_math.isnan(a) for a in actual) else actual,
         "has_check_phi": prior is not None and type(prior).check_phi is not Prior.check_phi,

@@ -9,6 +9,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstring>
 #include <memory>
 #include <optional>
 #include <string>
@@ -56,6 +57,19 @@ struct ExceptionTypes {
   PyObject* busy = nullptr;
   PyObject* damaged = nullptr;
 } g_exc;
+
+// Sets the Python error `type` with drops's message, whose bytes that are not UTF-8 (a binary
+// file's content quoted in a message) are backslash-escaped instead of making the message empty.
+void set_error(PyObject* type, const char* message) {
+  PyObject* text = PyUnicode_DecodeUTF8(message, static_cast<Py_ssize_t>(std::strlen(message)),
+                                        "backslashreplace");
+  if (text == nullptr) {
+    PyErr_Clear();
+    text = PyUnicode_FromString("(a message that cannot be decoded)");
+  }
+  PyErr_SetObject(type, text);
+  Py_XDECREF(text);
+}
 
 PyObject* add_exception(py::module_& m, const char* name, const char* doc, py::tuple bases) {
   const std::string qualified = std::string("drops.") + name;
@@ -287,6 +301,7 @@ struct PythonTaskRun {
 
 PYBIND11_MODULE(_drops, m) {
   m.doc() = "The C++ core of the Python package drops (use the package: import drops).";
+  m.attr("__version__") = DROPS_VERSION;  // the CMake project's version (CHANGELOG.md)
   drops::use_single_threaded_blas();
   g_registry = std::make_unique<ex::Registry>();
   register_builtins(*g_registry);
@@ -319,17 +334,25 @@ PYBIND11_MODULE(_drops, m) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const ex::RunDirectoryBusy& e) {
-      PyErr_SetString(g_exc.busy, e.what());
+      set_error(g_exc.busy, e.what());
     } catch (const ex::RunDirectoryDamaged& e) {
-      PyErr_SetString(g_exc.damaged, e.what());
+      set_error(g_exc.damaged, e.what());
     } catch (const drops::ConfigError& e) {
-      PyErr_SetString(g_exc.config_error, e.what());
+      set_error(g_exc.config_error, e.what());
     } catch (const drops::InvalidArgument& e) {
-      PyErr_SetString(g_exc.invalid_argument, e.what());
+      set_error(g_exc.invalid_argument, e.what());
     } catch (const drops::NumericalError& e) {
-      PyErr_SetString(g_exc.numerical_error, e.what());
+      set_error(g_exc.numerical_error, e.what());
     } catch (const drops::Error& e) {
-      PyErr_SetString(g_exc.error, e.what());
+      set_error(g_exc.error, e.what());
+    } catch (const py::error_already_set&) {
+      throw;  // pybind11's own translation
+    } catch (const py::builtin_exception&) {
+      throw;
+    } catch (const std::bad_alloc&) {
+      PyErr_SetString(PyExc_MemoryError, "drops: out of memory");
+    } catch (const std::exception& e) {
+      set_error(PyExc_RuntimeError, e.what());
     }
   });
 
@@ -439,7 +462,22 @@ PYBIND11_MODULE(_drops, m) {
       "The registered algorithms' names, the default first.");
   m.def(
       "_read_run",
-      [](const std::string& directory) { return run_dict(ex::read_run(directory, &registry())); },
+      [](const std::string& directory) {
+        // A directory that holds none of a run's files is no run (the library's reader calls it
+        // "not started", which a campaign's runs that have not begun are).
+        const std::filesystem::path d(directory);
+        std::error_code ec;
+        if (!std::filesystem::is_directory(d, ec))
+          throw drops::Error(directory + " is not a run directory (not a directory)");
+        bool any = false;
+        for (const char* f : {"config.yaml", "summary.json", "episodes.csv"})
+          any = any || std::filesystem::exists(d / f, ec);
+        if (!any)
+          throw drops::Error(directory +
+                             " is not a run directory (no config.yaml, summary.json or "
+                             "episodes.csv)");
+        return run_dict(ex::read_run(directory, &registry()));
+      },
       py::arg("directory"), "read_run as a dict of fields and numpy arrays.");
   m.def(
       "_read_trajectory",

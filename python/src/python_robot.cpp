@@ -5,6 +5,7 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <utility>
@@ -78,6 +79,11 @@ VectorXd vector_of(const Array& a) {
   return v;
 }
 
+// The largest reward magnitude a Task.reward may return: an episode's return (a sum of at most a
+// few thousand rewards) and the mean over rollouts stay finite (docs/python.md, "What drops
+// refuses").
+constexpr double kMaxRewardMagnitude = 1e100;
+
 // Task.observe and Task.reward must give finite values for finite states (the model and the
 // policy cannot use anything else).
 void require_finite(const MatrixXd& m, const MatrixXd& X, const std::string& callback) {
@@ -115,7 +121,8 @@ auto with_python(CallbackErrors& errors, const std::string& callback, F&& f,
 }
 
 struct Spec {
-  std::string name, description, prior_label, task_class;
+  std::string name, description, prior_label, task_class, system_class, prior_class;
+  std::map<std::string, std::string> declaration;  // TaskSetup::declaration
   std::vector<std::string> state_names, action_names, state_units, action_units;
   int E = 0, A = 0, O = 0, horizon = 0, hidden_units = 10;
   double dt = 0, max_action = 1;
@@ -138,6 +145,9 @@ Spec read_spec(const py::dict& d) {
   s.name = d["name"].cast<std::string>();
   s.description = d["description"].cast<std::string>();
   s.task_class = d["task_class"].cast<std::string>();
+  s.system_class = d["system_class"].cast<std::string>();
+  s.prior_class = d["prior_class"].cast<std::string>();
+  s.declaration = d["declaration"].cast<std::map<std::string, std::string>>();
   s.prior_label = d["prior_label"].cast<std::string>();
   s.state_names = d["state_names"].cast<std::vector<std::string>>();
   s.action_names = d["action_names"].cast<std::vector<std::string>>();
@@ -213,6 +223,14 @@ class PyTask final : public Task {
                                "one reward per state: B = " + std::to_string(X.rows())));
     });
     require_finite(r, X, cb);
+    for (Eigen::Index b = 0; b < r.size(); ++b)
+      if (std::abs(r[b]) > kMaxRewardMagnitude) {
+        std::ostringstream o;
+        o << cb << " returned " << r[b] << " in row " << b << " (for the state x = ["
+          << X.row(b) << "]); a reward's magnitude must be at most 1e100, so that returns "
+          << "(sums of rewards) stay finite";
+        throw InvalidArgument(o.str());
+      }
   }
   std::optional<Reflection> reflection() const override { return s_.reflection; }
   bool solved(const Trajectory& tr) const override {
@@ -289,12 +307,17 @@ class PyPrior final : public model::MeanFunction {
   void check_phi(const VectorXd& phi) const override {
     check_size("Prior: phi", static_cast<long>(s_.phi_names.size()), phi.size());
     if (!s_.has_check_phi) return;
-    with_python(*c_.errors, "Prior.check_phi", [&] {
+    const std::string cb = s_.prior_class + ".check_phi";
+    with_python(*c_.errors, cb, [&] {
       try {
         c_.check_phi(to_array(phi));
       } catch (py::error_already_set& e) {
         // ValueError: phi outside the simulator's domain (GP-MI scores it -inf and moves on).
-        if (e.matches(PyExc_ValueError)) throw InvalidArgument(e.what());
+        if (e.matches(PyExc_ValueError)) {
+          std::ostringstream o;
+          o << cb << " refused phi = [" << phi.transpose() << "]: " << describe_exception(e);
+          throw InvalidArgument(o.str());
+        }
         throw;
       }
     });
@@ -354,8 +377,11 @@ class PyTaskPlugin final : public ex::TaskPlugin {
   // A generation's rollouts in one call per step (a CMA-ES generation of the policy search has
   // tens of candidates): a third of the calls of the library's 8, the same episodes
   // (docs/benchmarks.md, "A prior in Python").
+  // Variances from a subset of 400 transitions once there are more, as the pendubot's: the
+  // exact variance costs O(N^2) per prediction, so a policy search's time grew faster than the
+  // data (docs/decisions/pendubot-variance-points.md; docs/python.md, "What a run costs").
   std::map<std::string, std::string> shared_defaults() const override {
-    return {{"rollouts.batch", "64"}};
+    return {{"rollouts.batch", "64"}, {"model.variance_points", "400"}};
   }
   std::vector<ex::KeySpec> keys() const override {
     policy::NeuralNetPolicyOptions defaults;
@@ -391,6 +417,7 @@ class PyTaskPlugin final : public ex::TaskPlugin {
       s.phi_actual = s_.phi_actual;
     }
     s.prior_label = s_.prior_label;
+    s.declaration = s_.declaration;
     s.state_names = s_.state_names;
     s.action_names = s_.action_names;
     return s;
@@ -419,8 +446,31 @@ class PyTaskPlugin final : public ex::TaskPlugin {
 
 }  // namespace
 
+std::string describe_exception(const py::error_already_set& e) {
+  // Never e.what(): pybind11 formats an exception whose __str__ raises by formatting the new
+  // exception, which recurses until the stack overflows when it is of the same type.
+  std::string type = "an exception";
+  if (PyObject* t = e.type().ptr(); t && PyType_Check(t))
+    type = reinterpret_cast<PyTypeObject*>(t)->tp_name;
+  const std::string unprintable = "<unprintable " + type + " object: its __str__ raised>";
+  PyObject* text = PyObject_Str(e.value().ptr());
+  if (text == nullptr) {
+    PyErr_Clear();
+    return type + ": " + unprintable;
+  }
+  PyObject* bytes = PyUnicode_AsEncodedString(text, "utf-8", "backslashreplace");
+  Py_DECREF(text);
+  if (bytes == nullptr) {
+    PyErr_Clear();
+    return type + ": " + unprintable;
+  }
+  std::string message(PyBytes_AS_STRING(bytes), static_cast<std::size_t>(PyBytes_GET_SIZE(bytes)));
+  Py_DECREF(bytes);
+  return message.empty() ? type : type + ": " + message;
+}
+
 void CallbackErrors::raise(py::error_already_set&& e, const std::string& callback) {
-  const std::string message = callback + " raised " + e.what();
+  const std::string message = callback + " raised " + describe_exception(e);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!first_) first_.emplace(std::move(e));

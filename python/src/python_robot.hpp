@@ -20,6 +20,12 @@ namespace drops::python {
 
 namespace py = pybind11;
 
+/// "<type name>: <str(exception)>" (or the type alone for an empty message), for messages; an
+/// exception whose __str__ raises gives "<type>: <unprintable <type> object: ...>" instead of
+/// recursing (pybind11's what() does). Non-UTF-8 text is backslash-escaped. Called with the
+/// interpreter lock held; raises nothing.
+std::string describe_exception(const py::error_already_set& e);
+
 /// A callback raised a Python exception: thrown through the C++ code (and the run loop, which
 /// records the run as failed) while the Python exception itself waits in CallbackErrors.
 class CallbackError : public Error {
