@@ -706,7 +706,7 @@ void write_report_markdown(const CampaignReport& report, const fs::path& path) {
                        const std::string& n) {
       const auto it = std::find(ns.begin(), ns.end(), n);
       const auto i = static_cast<std::size_t>(it - ns.begin());
-      return it == ns.end() || i >= vs.size() ? std::string("–") : fmt::format("{:.3f}", vs[i]);
+      return it == ns.end() || i >= vs.size() ? std::string("–") : fmt::format("{:.4g}", vs[i]);
     };
     for (const auto* g : with_phi) {
       const auto& last = g->episodes.back();

@@ -12,6 +12,7 @@
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/experiment/run_directory.hpp"
+#include "run_hints.hpp"
 
 namespace drops::experiment {
 namespace {
@@ -20,12 +21,39 @@ std::string phi_brief(const VectorXd& phi, const model::PriorParameters& p) {
   std::string s;
   for (int i : p.tunable)
     if (i >= 0 && i < phi.size() && static_cast<std::size_t>(i) < p.names.size())
-      s += fmt::format("{}{}={:.3f}", s.empty() ? "" : " ", p.names[static_cast<std::size_t>(i)],
+      s += fmt::format("{}{}={:.4g}", s.empty() ? "" : " ", p.names[static_cast<std::size_t>(i)],
                        phi[i]);
   return s.empty() ? "none" : s;  // no prior (the gp variant, a direct search), hence no phi
 }
 
+// A setting as an integer, or `fallback` when the run has no such key (another algorithm).
+long setting_int(const Settings& s, const std::string& key, long fallback) {
+  const auto it = s.find(key);
+  if (it == s.end()) return fallback;
+  try {
+    return std::stol(it->second);
+  } catch (const std::exception&) {
+    return fallback;
+  }
+}
+
 }  // namespace
+
+std::string policy_cost_hint(int episode, double seconds, double previous_seconds,
+                             long transitions, long variance_points, long max_evaluations) {
+  if (!(seconds >= 30 && previous_seconds > 0 && seconds >= 1.5 * previous_seconds)) return "";
+  const bool capped = variance_points > 0 && transitions > variance_points;
+  return fmt::format(
+      "hint: episode {}'s policy search took {:.0f} s ({:.0f} s the episode before), with the "
+      "model on N = {} recorded transitions. Its cost grows with N: every prediction's mean costs "
+      "O(N) and its variance O({}){}, for each of optimizer.max_evaluations = {} evaluations "
+      "times the horizon's steps. Fewer evaluations, model.variance_points (a cap m on the "
+      "variance's points) or fewer episodes trade it; docs/python.md, \"What a run costs\"",
+      episode, seconds, previous_seconds, transitions, capped ? "m^2" : "N^2",
+      variance_points > 0 ? fmt::format(" (model.variance_points = {})", variance_points)
+                          : std::string(" (model.variance_points = 0: every transition)"),
+      max_evaluations);
+}
 
 Experiment make_experiment(const Registry& registry, const Settings& settings,
                            const std::string& source) {
@@ -162,9 +190,28 @@ RunOutcome run_experiment(const Registry& registry, const Settings& settings,
             : std::string("running the episode");
     status_line(fmt::format("[episode {}/{}] {}", s.episode, episodes, what));
   };
+  // The cost hint (policy_cost_hint): the transitions recorded in this session, the last search.
+  long transitions = 0;
+  double previous_policy_seconds = 0;
+  bool hinted = false;
+  const long variance_points = setting_int(e.settings, "model.variance_points", 0);
+  const long max_evaluations = setting_int(e.settings, "optimizer.max_evaluations", 0);
   cb.on_episode = [&](const algo::EpisodeRecord& r) {
     dir->record(r);
     clear();
+    if (!hinted && e.uses_model && r.keep_trajectories) {
+      const std::string hint =
+          policy_cost_hint(r.episode, r.policy_seconds, previous_policy_seconds, transitions,
+                           variance_points, max_evaluations);
+      if (!hint.empty() && !quiet) {
+        out.line(hint);
+        hinted = true;
+      }
+    }
+    if (r.keep_trajectories) {
+      transitions += static_cast<long>(r.real.actions.rows());
+      previous_policy_seconds = r.policy_seconds;
+    }
     // Said even when quiet: a real system that breaks down is something to act on.
     if (r.real.nonfinite_step >= 0)
       out.line(fmt::format(
