@@ -14,7 +14,7 @@ int run(int argc, char** argv, const experiment::Registry& registry, const std::
                ": data-efficient robot learning with black-box simulator priors\n"
                "(Black-DROPS with GP-MI, Chatzilygeroudis & Mouret, ICRA 2018)"};
   app.name(program);
-  app.set_version_flag("--version", "drops 0.1.0");
+  app.set_version_flag("--version", "drops " DROPS_VERSION);
   app.require_subcommand(1);
   app::Action action;
   app::add_run_command(app, action, registry);

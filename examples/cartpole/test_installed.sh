@@ -47,7 +47,7 @@ if grep -q 'drops_WITH_HEXAPOD ON' "$tmp/prefix/lib/cmake/drops/dropsConfig.cmak
   cat >"$tmp/hexapod_consumer/CMakeLists.txt" <<'CMAKE'
 cmake_minimum_required(VERSION 3.22)
 project(hexapod_consumer LANGUAGES CXX)
-find_package(drops 0.1 REQUIRED)
+find_package(drops 0.2 REQUIRED)
 add_executable(consumer main.cpp)
 target_link_libraries(consumer PRIVATE drops::hexapod)
 CMAKE

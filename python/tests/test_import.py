@@ -32,3 +32,13 @@ def test_an_unknown_task_is_a_config_error():
         assert "no_such_task" in str(e)
     else:
         raise AssertionError("schema('no_such_task') did not raise ConfigError")
+
+
+def test_the_version_is_the_cmake_projects_and_the_command_lines(drops_program):
+    import re
+    from conftest import SOURCE_DIR
+    cmake = (SOURCE_DIR / "CMakeLists.txt").read_text()
+    version = re.search(r"project\(drops VERSION (\S+)", cmake).group(1)
+    assert drops.__version__ == version
+    assert run_cli("--version").stdout.strip() == f"drops {version}"
+    assert f"## {version}" in (SOURCE_DIR / "CHANGELOG.md").read_text()
