@@ -22,6 +22,10 @@ Every statistic is computed by the C++ side; this script only draws.
       5, ... along y, the first of each the outermost), the coverage per value of each dimension
       and the distribution of the elites' fitness.
 
+In the returns figures (and the report's figure of a task metric) a value far from all the others
+(a diverged episode: outlier_limits) is left outside the y-axis, marked by a triangle at its edge
+and named with its value, so that it does not flatten the other points into a line.
+
 Exit codes: 0 success, 1 error, 2 usage error, 3 matplotlib or numpy missing.
 Needs Debian's python3-matplotlib and python3-numpy (scripts/install-deps).
 """
@@ -68,6 +72,81 @@ def number(text):
 def save(fig, path):
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
+
+
+# ---------------------------------------------------------------- outliers on the y-axis
+# One diverged episode (a return of -372,046 among returns of 60-69) would flatten every other
+# point of a figure into a line. Such a value is left outside the y-axis, marked at its edge (a
+# triangle) and named in the figure with its value.
+
+# A value is an outlier when it lies more than this many times the bulk's scale beyond the bulk.
+OUTLIER_RATIO = 10.0
+
+
+def outlier_limits(values):
+    """The y-axis limits (low, high) that leave out a few far outliers, or None when there are
+    none (matplotlib then chooses the limits as before).
+
+    values: a flat sequence of numbers; NaN and infinities are ignored. The bulk is the narrowest
+    range left after removing at most max(1, n // 10) of the n finite values, taken from either
+    end, such that each removed value lies more than OUTLIER_RATIO times the bulk's scale beyond
+    the bulk; the scale is the larger of the bulk's span and its largest magnitude, so that a
+    learning curve that jumps from returns near 5 to 20 is kept whole while -372,046 among
+    returns of 60-69 is left out. Fewer than 4 values have no bulk to speak of: None. The
+    limits are the bulk's range with matplotlib's default margin (5 % of the span; of the
+    largest magnitude when the bulk is one value)."""
+    v = np.asarray(values, dtype=float)
+    v = np.sort(v[np.isfinite(v)])
+    n = len(v)
+    if n < 4:
+        return None
+    best = None
+    for removed in range(1, max(1, n // 10) + 1):
+        for low in range(removed + 1):
+            high = removed - low
+            bulk = v[low:n - high]
+            scale = max(bulk[-1] - bulk[0], np.abs(bulk).max())
+            if scale <= 0:
+                continue
+            if low and bulk[0] - v[low - 1] <= OUTLIER_RATIO * scale:
+                continue
+            if high and v[n - high] - bulk[-1] <= OUTLIER_RATIO * scale:
+                continue
+            if best is None or bulk[-1] - bulk[0] < best[1] - best[0]:
+                best = (bulk[0], bulk[-1])
+    if best is None:
+        return None
+    lo, hi = best
+    pad = 0.05 * ((hi - lo) if hi > lo else abs(hi))
+    return lo - pad, hi + pad
+
+
+def number_text(v):
+    """v for a figure's note: 6 significant digits, thousands separated, a true minus sign."""
+    return f"{v:,.6g}".replace("-", "\u2212")
+
+
+def mark_clipped(ax, x, y, limits, color, markersize=7):
+    """Draws a triangle at the edge of ax's y-axis for each point (x, y) beyond limits; returns
+    the points below and above: lists of (x, y)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    below, above = y < limits[0], y > limits[1]
+    for side, edge, marker in ((below, 0.0, "v"), (above, 1.0, "^")):
+        if side.any():
+            ax.plot(x[side], np.full(side.sum(), edge), marker, color=color,
+                    markersize=markersize, transform=ax.get_xaxis_transform(), clip_on=False,
+                    zorder=6)
+    return list(zip(x[below], y[below])), list(zip(x[above], y[above]))
+
+
+def clipped_note(points, what, where, place):
+    """'1 real return below the axis: −372,046 (episode 5)': points are (x, y), place(x) names
+    where x is; at most 3 points are listed."""
+    n = len(points)
+    items = [f"{number_text(y)} ({place(x)})" for x, y in points[:3]]
+    if n > 3:
+        items.append(f"{n - 3} more")
+    return f"{n} {what}{'' if n == 1 else 's'} {where} the axis: " + ", ".join(items)
 
 
 # ---------------------------------------------------------------- drops report
@@ -129,6 +208,7 @@ def plot_report(returns_csv, output_png, ylabel="return"):
     fig, axes = plt.subplots(nrows, ncols, figsize=(width, 3.6 * nrows), sharey=True,
                              squeeze=False)
     partial = False
+    drawn = []  # (axes, panel, variant, t, median, q25, q75) of every line, for the outliers
     for i, prior in enumerate(priors):
         ax = axes[i // ncols][i % ncols]
         for v in variants:
@@ -151,6 +231,7 @@ def plot_report(returns_csv, output_png, ylabel="return"):
             ax.plot(t[full], med[full], "o", color=c, markersize=4, zorder=z + 1)
             ax.plot(t[~full], med[~full], "o", color=c, markersize=5, markerfacecolor="white",
                     zorder=z + 1)
+            drawn.append((ax, prior, v, t, med, q25, q75))
         ax.set_title(title[prior], loc="left")
         ax.set_xlabel("interaction time (s)")
         if i % ncols == 0:
@@ -171,11 +252,27 @@ def plot_report(returns_csv, output_png, ylabel="return"):
     legend_rows = math.ceil(len(labels) / legend_cols)
     fig.legend([handles[k] for k in order], [labels[k] for k in order], loc="lower center",
                ncol=legend_cols, frameon=False, bbox_to_anchor=(0.5, 0.0))
-    title = (ylabel[:1].upper() + ylabel[1:] + " on the real system: line = median over the runs, "
-             "band = 25–75 %")
+    heading = (ylabel[:1].upper() + ylabel[1:] + " on the real system: line = median over the "
+               "runs, band = 25–75 %")
     if partial:
-        title += "\nhollow markers: not every run has reached this episode yet"
-    fig.suptitle(title, fontsize=11)
+        heading += "\nhollow markers: not every run has reached this episode yet"
+    limits = outlier_limits(np.concatenate([a for d in drawn for a in d[4:]]) if drawn else [])
+    if limits is not None:  # the panels share the y-axis
+        axes[0][0].set_ylim(*limits)
+        below, above, cut = [], [], False
+        for ax, prior, v, t, med, q25, q75 in drawn:
+            b, a = mark_clipped(ax, t, med, limits, color[v])
+            where = f"{label[v]}, " + (f"{title[prior]}, " if n > 1 else "")
+            below += [(f"{where}{x:g} s", y) for x, y in b]
+            above += [(f"{where}{x:g} s", y) for x, y in a]
+            cut = cut or bool(np.any((q25 < limits[0]) & (med >= limits[0]))
+                              or np.any((q75 > limits[1]) & (med <= limits[1])))
+        for points, where, mark in ((below, "below", "▼"), (above, "above", "▲")):
+            if points:
+                heading += f"\n{mark} " + clipped_note(points, "median", where, lambda x: x)
+        if cut:
+            heading += "\nbands cut at the axis where a quartile lies beyond it"
+    fig.suptitle(heading, fontsize=11)
     legend_height_in = 0.3 * legend_rows + 0.1
     fig.tight_layout(rect=(0, legend_height_in / fig.get_figheight(), 1, 1))
     save(fig, output_png)
@@ -239,6 +336,18 @@ def plot_returns(data, out):
     if solved.any():
         ax.plot(k[solved], real[solved], "*", color="#2ca02c", markersize=15, zorder=5,
                 label="solved")
+    notes = []
+    limits = outlier_limits(np.concatenate([real, pred]))
+    if limits is not None:
+        ax.set_ylim(*limits)
+        for values, what, c in ((real, "real return", "#1f77b4"),
+                                (pred, "predicted return", "#ff7f0e")):
+            for points, where, marker in zip(mark_clipped(ax, k, values, limits, c),
+                                             ("below", "above"), ("v", "^")):
+                if points:
+                    ax.plot([], [], marker, color=c, markersize=7, label=clipped_note(
+                        points, what, where, lambda x: f"episode {x:g}"))
+                    notes.append(where)
     ax.set_xlabel("episode")
     ax.set_ylabel("return")
     ax.set_xticks(k if len(k) <= 20 else np.unique(np.linspace(k.min(), k.max(), 11).round()))
@@ -248,7 +357,10 @@ def plot_returns(data, out):
         per = times[0]
         sec = ax.secondary_xaxis("top", functions=(lambda e: e * per, lambda t: t / per))
         sec.set_xlabel("interaction time (s)")
-    ax.legend(loc="lower right")
+    if notes:
+        ax.legend(loc="best", fontsize=9)
+    else:
+        ax.legend(loc="lower right")
     ax.set_title(f"{data['name']}: {data['variant_label']}, {data['panel_title']}\n"
                  f"{len(eps)} episodes", fontsize=11, pad=10)
     save(fig, os.path.join(out, "returns.png"))
