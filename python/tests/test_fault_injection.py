@@ -310,16 +310,25 @@ def test_a_refused_resume_leaves_a_complete_run_complete(tmp_path):
     with pytest.raises(drops.ConfigError):  # another robot than the run's
         drops.resume(tmp_path / "r", **QUIET, **robot())
     assert json.loads((tmp_path / "r" / "summary.json").read_text())["status"] == "complete"
+    # A run of one's own robot, extended with a robot of another shape.
+    drops.run(overrides=SMALL, output=tmp_path, name="p", **QUIET, **robot())
+    with pytest.raises(drops.ConfigError, match="horizon"):
+        drops.resume(tmp_path / "p", {"episodes": 3}, **QUIET, **robot(horizon=30))
+    assert json.loads((tmp_path / "p" / "summary.json").read_text())["status"] == "complete"
 
 
 # 9. Messages one can act on -----------------------------------------------------------------------
 
 def test_a_binary_configuration_file_gives_a_readable_message(tmp_path):
     f = tmp_path / "binary.yaml"
-    f.write_bytes(b"episodes: \xff\xfe\x00\x01\x80 \xc3\x28")
-    with pytest.raises(drops.ConfigError) as e:
+    for content in (b"model.type: \xff\xfe\n", b"episodes: \xff\xfe\x00\x01\x80 \xc3\x28"):
+        f.write_bytes(content)
+        with pytest.raises(drops.ConfigError) as e:
+            drops.config(f)
+        assert str(e.value).strip() and "binary.yaml" in str(e.value)
+    f.write_bytes(b"model.type: \xff\xfe\n")
+    with pytest.raises(drops.ConfigError, match=r"model\.type.*\\xff\\xfe"):
         drops.config(f)
-    assert str(e.value).strip() and "binary.yaml" in str(e.value)
 
 
 def test_a_file_error_says_the_operating_systems_reason(tmp_path):
