@@ -24,7 +24,7 @@ import numpy as _np
 from . import _drops
 from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDirectoryBusy,
                      RunDirectoryDamaged, RunOutcome)
-from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec
+from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec, _unicode
 
 __version__ = _drops.__version__  # drops's version (CHANGELOG.md), the C++ library's
 
@@ -69,11 +69,7 @@ def _overrides(overrides, extra):
     for o in result:
         if "\0" in o:
             raise ValueError(f"overrides: {o[:80]!r} holds a NUL character")
-        try:
-            o.encode("utf-8")
-        except UnicodeEncodeError:
-            raise ValueError(f"overrides: {o[:80]!r} is not valid Unicode text (a lone "
-                             "surrogate)") from None
+        _unicode(o, "overrides")
     return result
 
 
@@ -90,12 +86,7 @@ def _path(p, what="path"):
         s = _os.fsdecode(s)
     if "\0" in s:
         raise ValueError(f"{what} = {s[:80]!r}: a path cannot hold a NUL character")
-    try:
-        s.encode("utf-8")
-    except UnicodeEncodeError:
-        raise ValueError(f"{what} = {s[:80]!r}: not valid Unicode text (a lone surrogate)") \
-            from None
-    return s
+    return _unicode(s, what)
 
 
 def _progress(progress):

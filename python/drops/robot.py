@@ -208,15 +208,22 @@ def _shown(value):
     return r if len(r) <= 80 else r[:77] + "..."
 
 
-def _text(value, what, limit=200):
-    """A str that encodes as UTF-8 (no lone surrogate), without NUL or a line break."""
-    if not isinstance(value, str):
-        raise TypeError(f"{what}: expected a str, got {type(value).__name__} {_shown(value)}")
+def _unicode(value, what):
+    """value (a str) when it encodes as UTF-8; ValueError naming `what` for a lone surrogate,
+    which no file or C++ string can hold."""
     try:
         value.encode("utf-8")
     except UnicodeEncodeError:
         raise ValueError(f"{what} = {_shown(value)}: not valid Unicode text (a lone surrogate)") \
             from None
+    return value
+
+
+def _text(value, what, limit=200):
+    """A str that encodes as UTF-8 (no lone surrogate), without NUL or a line break."""
+    if not isinstance(value, str):
+        raise TypeError(f"{what}: expected a str, got {type(value).__name__} {_shown(value)}")
+    _unicode(value, what)
     if any(c in value for c in "\0\n\r") or len(value) > limit:
         raise ValueError(f"{what} = {_shown(value)}: expected at most {limit} characters, without "
                          "NUL or a line break")

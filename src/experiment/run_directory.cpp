@@ -782,11 +782,10 @@ void check_config(const fs::path& dir, const nlohmann::json& started, const std:
   }
 }
 
-/// Throws ConfigError listing what the robot of a resumed run declares differently from the run's
-/// record (checkpoint.json's validation.task), each item with both values.
-void check_task_record(const fs::path& cp_path, const nlohmann::json& recorded,
-                       const nlohmann::json& now) {
-  std::vector<std::string> diffs;
+// The members of two JSON objects that differ, each as "<key> <value there> in the run, <value
+// here> now"; the object "declaration" is compared member by member.
+void object_differences(const nlohmann::json& recorded, const nlohmann::json& now,
+                        std::vector<std::string>& diffs) {
   const auto brief = [](const nlohmann::json& v) {
     std::string s = v.is_null() ? std::string("(none)") : v.dump();
     return s.size() > 120 ? s.substr(0, 120) + "..." : s;
@@ -798,19 +797,19 @@ void check_task_record(const fs::path& cp_path, const nlohmann::json& recorded,
     const nlohmann::json a = recorded.contains(k) ? recorded[k] : nlohmann::json();
     const nlohmann::json b = now.contains(k) ? now[k] : nlohmann::json();
     if (a == b) continue;
-    if (k == "declaration" && a.is_object() && b.is_object()) {
-      std::set<std::string> dk;
-      for (const auto& [d, v] : a.items()) dk.insert(d);
-      for (const auto& [d, v] : b.items()) dk.insert(d);
-      for (const auto& d : dk) {
-        const nlohmann::json da = a.contains(d) ? a[d] : nlohmann::json();
-        const nlohmann::json db = b.contains(d) ? b[d] : nlohmann::json();
-        if (da != db) diffs.push_back(d + " " + brief(da) + " in the run, " + brief(db) + " now");
-      }
-      continue;
-    }
-    diffs.push_back(k + " " + brief(a) + " in the run, " + brief(b) + " now");
+    if (k == "declaration" && a.is_object() && b.is_object())
+      object_differences(a, b, diffs);
+    else
+      diffs.push_back(k + " " + brief(a) + " in the run, " + brief(b) + " now");
   }
+}
+
+/// Throws ConfigError listing what the robot of a resumed run declares differently from the run's
+/// record (checkpoint.json's validation.task), each item with both values.
+void check_task_record(const fs::path& cp_path, const nlohmann::json& recorded,
+                       const nlohmann::json& now) {
+  std::vector<std::string> diffs;
+  object_differences(recorded, now, diffs);
   if (diffs.empty()) return;
   std::string list;
   for (const auto& d : diffs) list += (list.empty() ? "" : "; ") + d;
