@@ -176,6 +176,14 @@ TEST(RecordedLog, ActionIsTheExactAverageOfTheHeldActionOverEachPeriod) {
   ASSERT_EQ(steps.segments.at(0).transitions(), 2);
   EXPECT_NEAR(steps.segments[0].u(0, 0), -0.6, 1e-13);
   EXPECT_NEAR(steps.segments[0].u(1, 0), 5.2, 1e-13);
+  // The shortest log: two rows one period apart, one transition (a derived velocity is their
+  // slope).
+  table.values.resize(2, 4);
+  table.values << 0.0, 0.1, 0, 3.0, 0.01, 0.3, 0, 4.0;
+  const RecordedLog two = resample_log(table, pendulum_columns(true), LogOptions{});
+  ASSERT_EQ(two.report.transitions, 1);
+  EXPECT_NEAR(two.segments[0].x(0, 1), 20.0, 1e-9);
+  EXPECT_EQ(two.segments[0].u(0, 0), 3.0);
 }
 
 TEST(RecordedLog, WrappedAngleIsUnwrappedAndInterpolatedWithoutATurn) {

@@ -584,7 +584,10 @@ RecordedLog resample_log(const LogTable& table, const LogColumns& columns,
     // 6. Derived velocities, and the units check of logged ones.
     for (int e = 0; e < E; ++e) {
       if (of[e] < 0) continue;
-      const VectorXd d = savitzky_golay_derivative(grid[of[e]], h, w);
+      const VectorXd& y = grid[of[e]];
+      // A segment of one period on a grid of one step has two points: their slope.
+      const VectorXd d = y.size() >= 3 ? savitzky_golay_derivative(y, h, w)
+                                       : VectorXd::Constant(y.size(), (y[1] - y[0]) / h);
       if (state_col[e] < 0) {
         grid[e] = d;
         continue;
