@@ -30,7 +30,7 @@ __version__ = _drops.__version__  # drops's version (CHANGELOG.md), the C++ libr
 
 __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
-    "read_trajectory", "read_policy", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
+    "read_trajectory", "read_policy", "read_log", "RecordedLog", "LogSegment", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
     "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged", "Task",
     "System", "Prior", "Parameter", "Reflection",
 ]
@@ -228,6 +228,145 @@ def read_policy(path):
     """Reads a policy file (episodes/NNN/policy.csv): theta, an array (P,) of float64 (the policy's
     parameters, in [-policy.bound, policy.bound]). Raises Error naming the file (and the line)."""
     return _drops._read_policy(_path(path, "path"))
+
+
+class LogSegment:
+    """One stretch of a recorded log without a gap, resampled to dt (K transitions).
+
+    Attributes: t0 (s): the time of x[0] in the log; x: (K + 1, E) the states at t0 + k dt;
+    u: (K, U) the actions averaged over [t0 + k dt, t0 + (k + 1) dt); first_line, last_line: the
+    file's lines of its first and last rows (1-based, the header is line 1).
+    """
+
+    def __init__(self, d):
+        self.t0 = d["t0"]
+        self.x = d["x"]
+        self.u = d["u"]
+        self.first_line = d["first_line"]
+        self.last_line = d["last_line"]
+
+    def __repr__(self):
+        return (f"LogSegment(t0={self.t0:g}, transitions={len(self.u)}, "
+                f"lines {self.first_line}-{self.last_line})")
+
+
+class RecordedLog:
+    """A robot's log resampled to dt by drops.read_log (docs/logs.md).
+
+    Attributes:
+      x: (N, E) the state before each of the N transitions, columns state_names.
+      u: (N, U) the action averaged over each transition's period, columns action_names.
+      dx: (N, E) x_{k+1} - x_k, what the models learn.
+      segments: list of LogSegment (the log split at its gaps), in time order.
+      state_names, action_names: lists of str; dt: the control period (s).
+      report: dict of what resampling found and did (rows, dropped_nonfinite,
+        dropped_repeated_time, gaps, longest_interval, median_interval, max_gap, grid_step,
+        short_segments, short_segment_rows, segments, transitions, angle_wraps (per state),
+        velocity_slope and velocity_rms_difference (per state, NaN where not checked), brief: one
+        line).
+    """
+
+    def __init__(self, d):
+        self.state_names = list(d["state_names"])
+        self.action_names = list(d["action_names"])
+        self.dt = d["dt"]
+        self.segments = [LogSegment(s) for s in d["segments"]]
+        self.report = dict(d["report"])
+        E, U = len(self.state_names), len(self.action_names)
+        self.x = _np.concatenate([s.x[:-1] for s in self.segments]) if self.segments \
+            else _np.zeros((0, E))
+        self.u = _np.concatenate([s.u for s in self.segments]) if self.segments \
+            else _np.zeros((0, U))
+        self.dx = _np.concatenate([_np.diff(s.x, axis=0) for s in self.segments]) \
+            if self.segments else _np.zeros((0, E))
+
+    def __repr__(self):
+        return f"RecordedLog({self.report['brief']})"
+
+
+_LOG_KINDS = ("angle", "velocity", "other")
+
+
+def _log_state(entry, i):
+    """One state of read_log's `state` as [column, kind, of, name]."""
+    if isinstance(entry, str):
+        entry = (entry,)
+    if isinstance(entry, _Mapping):
+        unknown = set(entry) - {"column", "kind", "of", "name"}
+        if unknown:
+            raise ValueError(f"state[{i}]: unknown field {sorted(unknown)[0]!r} (allowed: column, "
+                             "kind, of, name)")
+        entry = (entry.get("column"), entry.get("kind", "other"), entry.get("of"),
+                 entry.get("name"))
+    if not isinstance(entry, (tuple, list)) or not 1 <= len(entry) <= 4:
+        raise TypeError(f"state[{i}]: expected a column name, a tuple (column, kind[, of[, name]]) "
+                        f"or a dict, got {entry!r}")
+    column, kind, of, name = (list(entry) + [None] * 3)[:4]
+    kind = "other" if kind is None else kind
+    if kind not in _LOG_KINDS:
+        raise ValueError(f"state[{i}]: kind {kind!r}: expected one of {', '.join(_LOG_KINDS)}")
+    fields = []
+    for what, v in (("column", column), ("of", of), ("name", name)):
+        if v is None:
+            v = ""
+        if not isinstance(v, str):
+            raise TypeError(f"state[{i}]: {what}: expected a str, got {type(v).__name__}")
+        fields.append(_unicode(v, f"state[{i}].{what}"))
+    return [fields[0], kind, fields[1], fields[2]]
+
+
+def read_log(path, state, action, time="time", dt=0.01, *, time_scale=1.0, max_gap=0.0,
+             bad_rows="error", lowpass_hz=0.0, lowpass_order=2, derivative_window=0.01,
+             max_angle_span=50.0, min_transitions=1):
+    """Reads a robot's recorded log (CSV with a header) and resamples it to the control period dt
+    with drops's reader (C++ read_log; docs/logs.md states the method and what it refuses).
+
+    path: the CSV file. time: its time column (units: time_scale seconds).
+    state: one entry per state, in drops's state order: a column name (an "other" quantity), a
+      tuple (column, kind[, of[, name]]) or a dict with those keys. kind: "angle" (rad: unwrapped,
+      checked for degrees), "velocity" (logged, checked against the derivative of the state named
+      `of`; or, with column None or "", derived from `of` by a Savitzky-Golay derivative, and then
+      `name` is required) or "other". name: the state's name (default: the column).
+    action: the action's column names (list of str).
+    dt: the control period (s). max_gap: a longer interval between rows splits the log (s; 0: the
+      larger of dt and twice the median interval). bad_rows: "error" or "drop" (rows with a value
+      that is not finite, or repeating the previous time: dropped and counted). lowpass_hz,
+      lowpass_order: a zero-phase Butterworth low-pass of the states (0: off).
+      derivative_window: the derivative's window (s). max_angle_span: an angle spanning more is
+      refused (rad). min_transitions: fewer is an error.
+
+    Returns a RecordedLog: x (N, E), u (N, U), dx (N, E), segments, report. Raises drops.Error
+    naming the file, the line and the column for bad contents; drops.InvalidArgument (a
+    ValueError) for a declaration or an option out of range; TypeError / ValueError for arguments
+    of the wrong type.
+    """
+    if isinstance(state, (str, _Mapping)) or not hasattr(state, "__iter__"):
+        raise TypeError(f"state: expected a list of states, got {type(state).__name__}")
+    if isinstance(action, str) or not hasattr(action, "__iter__"):
+        raise TypeError(f"action: expected a list of column names, got {type(action).__name__}")
+    states = [_log_state(e, i) for i, e in enumerate(state)]
+    actions = []
+    for i, a in enumerate(action):
+        if not isinstance(a, str):
+            raise TypeError(f"action[{i}]: expected a str, got {type(a).__name__}")
+        actions.append(_unicode(a, f"action[{i}]"))
+    if not isinstance(time, str):
+        raise TypeError(f"time: expected a str, got {type(time).__name__}")
+    if bad_rows not in ("error", "drop"):
+        raise ValueError(f"bad_rows = {bad_rows!r}: expected 'error' or 'drop'")
+    numbers = {"dt": dt, "time_scale": time_scale, "max_gap": max_gap, "lowpass_hz": lowpass_hz,
+               "derivative_window": derivative_window, "max_angle_span": max_angle_span}
+    for k, v in numbers.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise TypeError(f"{k}: expected a number, got {type(v).__name__}")
+    for k, v in (("lowpass_order", lowpass_order), ("min_transitions", min_transitions)):
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise TypeError(f"{k}: expected an int, got {type(v).__name__}")
+    return RecordedLog(_drops._read_log(
+        _path(path, "path"), _unicode(time, "time"), states, actions, float(dt),
+        float(time_scale), float(max_gap), bad_rows == "drop", float(lowpass_hz),
+        int(lowpass_order), float(derivative_window), float(max_angle_span),
+        int(min_transitions)))
 
 
 class Trajectory:

@@ -2,7 +2,8 @@
 // docs/python.md). It registers the built-in tasks and algorithms as the `drops` program does
 // (apps/drops/main.cpp) and exposes drops::experiment: running and resuming an experiment
 // (experiment::run_experiment, the run loop of `drops run`), the run-directory reader (read_run,
-// read_trajectory_csv, read_policy_csv) with numpy arrays, and the configuration schema.
+// read_trajectory_csv, read_policy_csv) with numpy arrays, a robot's recorded logs (read_log) and
+// the configuration schema.
 // drops's exceptions become Python exceptions of the same names (drops.Error and subclasses).
 
 #include <pybind11/numpy.h>
@@ -18,6 +19,7 @@
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/experiment/recorded_log.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run.hpp"
 #include "drops/experiment/run_directory.hpp"
@@ -97,6 +99,55 @@ py::array_t<double> vector_array(const std::vector<double>& v) {
   py::array_t<double> a(static_cast<py::ssize_t>(v.size()));
   std::copy(v.begin(), v.end(), a.mutable_data());
   return a;
+}
+
+// An Eigen matrix as a numpy array (rows, cols) of its own (row-major copy).
+py::array_t<double> matrix_array(const drops::MatrixXd& m) {
+  py::array_t<double> a({static_cast<py::ssize_t>(m.rows()), static_cast<py::ssize_t>(m.cols())});
+  auto am = a.mutable_unchecked<2>();
+  for (Eigen::Index i = 0; i < m.rows(); ++i)
+    for (Eigen::Index j = 0; j < m.cols(); ++j) am(i, j) = m(i, j);
+  return a;
+}
+
+// read_log's result as a dict of lists, numbers and arrays (drops.read_log builds its object).
+py::dict recorded_log_dict(const ex::RecordedLog& log) {
+  py::dict d;
+  d["state_names"] = log.state_names;
+  d["action_names"] = log.action_names;
+  d["dt"] = log.dt;
+  py::list segments;
+  for (const auto& s : log.segments) {
+    py::dict seg;
+    seg["t0"] = s.t0;
+    seg["x"] = matrix_array(s.x);
+    seg["u"] = matrix_array(s.u);
+    seg["first_line"] = s.first_line;
+    seg["last_line"] = s.last_line;
+    segments.append(seg);
+  }
+  d["segments"] = segments;
+  const ex::LogReport& r = log.report;
+  py::dict report;
+  report["source"] = r.source;
+  report["rows"] = r.rows;
+  report["dropped_nonfinite"] = r.dropped_nonfinite;
+  report["dropped_repeated_time"] = r.dropped_repeated_time;
+  report["gaps"] = r.gaps;
+  report["longest_interval"] = r.longest_interval;
+  report["median_interval"] = r.median_interval;
+  report["max_gap"] = r.max_gap;
+  report["grid_step"] = r.grid_step;
+  report["short_segments"] = r.short_segments;
+  report["short_segment_rows"] = r.short_segment_rows;
+  report["segments"] = r.segments;
+  report["transitions"] = r.transitions;
+  report["angle_wraps"] = r.angle_wraps;
+  report["velocity_slope"] = vector_array(r.velocity_slope);
+  report["velocity_rms_difference"] = vector_array(r.velocity_rms_difference);
+  report["brief"] = r.BriefReport();
+  d["report"] = report;
+  return d;
 }
 
 // What the Python side of one run shares with its callbacks (called on the calling thread, which
@@ -492,6 +543,52 @@ PYBIND11_MODULE(_drops, m) {
         return py::make_tuple(t.columns, a);
       },
       py::arg("path"), "read_trajectory_csv: (column names, array (rows, columns)).");
+  m.def(
+      "_read_log",
+      [](const std::string& path, const std::string& time,
+         const std::vector<std::vector<std::string>>& states,
+         const std::vector<std::string>& actions, double dt, double time_scale, double max_gap,
+         bool drop_bad_rows, double lowpass_hz, int lowpass_order, double derivative_window,
+         double max_angle_span, int min_transitions) {
+        ex::LogColumns columns;
+        columns.time = time;
+        for (const auto& s : states) {
+          if (s.size() != 4) throw drops::InvalidArgument("a state: expected 4 fields");
+          ex::LogQuantity q = ex::LogQuantity::kOther;
+          if (s[1] == "angle")
+            q = ex::LogQuantity::kAngle;
+          else if (s[1] == "velocity")
+            q = ex::LogQuantity::kVelocity;
+          else if (s[1] != "other")
+            throw drops::InvalidArgument("a state's kind '" + s[1] +
+                                         "': expected angle, velocity or other");
+          columns.state.push_back({s[0], q, s[2], s[3]});
+        }
+        columns.action = actions;
+        ex::LogOptions o;
+        o.dt = dt;
+        o.time_scale = time_scale;
+        o.max_gap = max_gap;
+        o.bad_rows = drop_bad_rows ? ex::BadRows::kDrop : ex::BadRows::kError;
+        o.lowpass_hz = lowpass_hz;
+        o.lowpass_order = lowpass_order;
+        o.derivative_window = derivative_window;
+        o.max_angle_span = max_angle_span;
+        o.min_transitions = min_transitions;
+        ex::RecordedLog log;
+        {
+          py::gil_scoped_release release;
+          log = ex::read_log(path, columns, o);
+        }
+        return recorded_log_dict(log);
+      },
+      py::arg("path"), py::arg("time"), py::arg("states"), py::arg("actions"), py::arg("dt"),
+      py::arg("time_scale"), py::arg("max_gap"), py::arg("drop_bad_rows"), py::arg("lowpass_hz"),
+      py::arg("lowpass_order"), py::arg("derivative_window"), py::arg("max_angle_span"),
+      py::arg("min_transitions"),
+      "read_log: states are [column, kind, of, name] (kind angle | velocity | other); a dict of "
+      "state_names, action_names, dt, segments (t0, x (K + 1, E), u (K, U), first_line, "
+      "last_line) and report.");
   m.def(
       "_read_policy",
       [](const std::string& path) { return vector_array(ex::read_policy_csv(path)); },
