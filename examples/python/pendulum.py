@@ -144,10 +144,25 @@ def main():
     parser.add_argument("--reflect", action="store_true",
                         help="learn every transition and its mirror image "
                              "(model.reflect_transitions, SwingUp.reflection)")
-    args = parser.parse_args()
+    parser.add_argument("--dt", type=float, default=SwingUp.dt,
+                        help="control period (s; default %(default)s)")
+    parser.add_argument("--horizon", type=int, default=SwingUp.horizon,
+                        help="steps per episode (default %(default)s)")
     # A smaller policy-search budget than the pendubot's suffices for this 51-parameter policy.
-    settings = {"model.type": "gp_mi", "episodes": args.episodes,
-                "optimizer.max_evaluations": 2000, "model.reflect_transitions": args.reflect}
+    parser.add_argument("--evaluations", type=int, default=2000,
+                        help="optimizer.max_evaluations (default %(default)s; drops's: 10000)")
+    parser.add_argument("--threads", type=int, default=0, help="threads (0 = every core)")
+    parser.add_argument("--variance-points", type=int, default=None,
+                        help="model.variance_points (default: the Python task's, 400)")
+    args = parser.parse_args()
+    # The task, the real pendulum and the prior read the control period and the horizon from
+    # the class.
+    SwingUp.dt, SwingUp.horizon = args.dt, args.horizon
+    settings = {"model.type": "gp_mi", "episodes": args.episodes, "threads": args.threads,
+                "optimizer.max_evaluations": args.evaluations,
+                "model.reflect_transitions": args.reflect}
+    if args.variance_points is not None:
+        settings["model.variance_points"] = args.variance_points
     out = drops.run(overrides=settings,
                     seed=args.seed, output=args.output,
                     task=SwingUp(), system=RealPendulum(), prior=PendulumPrior())
