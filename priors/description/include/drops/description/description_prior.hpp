@@ -1,0 +1,135 @@
+#pragma once
+/// \file A robot's description file (URDF or MJCF) as the simulator prior M(x, u; phi) of GP-MI,
+/// its physical parameters as named phi (issue 64; the engine: MuJoCo 2.2,
+/// docs/decisions/description-file-engine.md). The only place of drops, with bench/, that includes
+/// MuJoCo; this header does not, so users of drops::description need not have its headers.
+///
+/// The model: the file's rigid bodies on hinge and slide joints, loaded by MuJoCo, with
+///   M(q) qdd + c(q, qd) + g(q) = gear .* u - b .* qd - f_c .* tanh(qd / v_s)   (+ the file's
+///   springs)
+/// (M includes the armature on its diagonal). Joint limits, contacts and MuJoCo's actuators are
+/// off: the action is the driven joints' torques times their gear, nothing else acts. Coulomb
+/// friction is the smooth torque above, applied by drops through MuJoCo's qfrc_applied (the file's
+/// `friction` / `frictionloss` is its start value f_c); viscous damping b is MuJoCo's dof_damping,
+/// explicit in mj_forward.
+///
+/// Integration: one control period dt is `substeps` steps of classical RK4 of h = dt / substeps,
+/// each stage's accelerations from mj_forward (4 per substep), u held over the period. Defaults:
+/// dt = 0.01 s, 10 substeps of 1 ms (the engine study measured 35-61 us per such period on the
+/// double pendulum, and agreement with the analytic model to 2e-12 rad over 2 s).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drops/core/types.hpp"
+#include "drops/model/mean_function.hpp"
+
+namespace drops::description {
+
+namespace detail {
+struct PriorModel;    // the file's model, shared by copies and never written after loading
+class WorkspacePool;  // per-call workspaces: an mjModel copy and an mjData each
+}  // namespace detail
+
+/// What DescriptionPrior loads and how it integrates. Every field has its default in-class.
+struct DescriptionPriorOptions {
+  /// The robot's description file: a URDF (the root element is <robot>) or an MJCF (<mujoco>).
+  /// A URDF is read by drops and handed to MuJoCo from memory: its <collision> and <visual>
+  /// elements are dropped (the prior needs neither: contacts are off, the links' <inertial> give
+  /// the masses), an undeclared `world` link that a joint names as parent is declared, and links
+  /// fixed to their parent stay bodies of their own (MuJoCo's fusestatic off), so each link's
+  /// phi is the file's <inertial> of that link. An MJCF is loaded from its path as written
+  /// (includes and meshes relative to it).
+  std::string file;
+  /// The joints of the state, in this order (hinge or slide joints; names as in the file). Empty:
+  /// every joint of the model in the model's order (depth-first through the kinematic tree, for a
+  /// chain the order from the base). Must name every joint that moves: a joint left out would have
+  /// no state.
+  std::vector<std::string> joints;
+  /// The joints the action drives, in the order of u (a subset of the model's joints). Empty:
+  /// the state's joints. An underactuated robot (the pendubot: only Joint1) lists its motors.
+  std::vector<std::string> actuated;
+  /// The phi of parameter_names(), in this order: `<body>.mass` (kg, >= 0), `<body>.com.x|y|z`
+  /// (m, the centre of mass in the body's frame: a URDF link's frame, the <inertial> origin),
+  /// `<body>.inertia` (a scale > 0 of the body's whole rotational inertia, 1 = the file's),
+  /// `<joint>.damping` (N m s/rad or N s/m, >= 0), `<joint>.friction` (Coulomb f_c, N m or N,
+  /// >= 0), `<joint>.armature` (rotor inertia, kg m^2, >= 0), `<joint>.gear` (torque per unit
+  /// of action of a driven joint, 1 = u is the torque), `gravity` (m/s^2, >= 0, the magnitude of
+  /// the file's gravity along its direction; MuJoCo's default 9.81 down -z). Empty: no phi.
+  std::vector<std::string> parameters;
+  /// Control period: dx is the change of the state over dt, s (> 0).
+  double dt = 0.01;
+  /// RK4 steps per control period (>= 1); the substep is dt / substeps.
+  int substeps = 10;
+  /// Velocity scale v_s of the smooth Coulomb friction f_c tanh(qd / v_s), rad/s or m/s (> 0).
+  /// The study's default. RK4 stays stable while h f_c / (v_s I) is below about 2.8 (I: the
+  /// smallest inertia a joint moves): a light joint with friction needs a larger v_s or a
+  /// smaller substep.
+  double coulomb_velocity = 0.01;
+  /// True when every field is valid; else false and, if why is not null, the reason.
+  bool IsValid(std::string* why) const;
+};
+
+/// A URDF or MJCF file as a model::MeanFunction: state x = [q, qd] (dim 2n: the `joints`'
+/// positions, rad or m, then their velocities, in the order of DescriptionPriorOptions::joints;
+/// note that tasks/pendubot orders its state velocities first, so a task maps its own order),
+/// action u = the `actuated` joints' torques (dim m, N m or N, times their gear), phi = the
+/// `parameters` by name (dim P). dx = x(t + dt) - x(t) (angles not wrapped).
+///
+/// Thread safety: const calls (evaluate, evaluate_batch, joint_accelerations) may run
+/// concurrently on one instance: each call leases a workspace (its own mjModel copy, into which
+/// the call writes phi, and its own mjData) from the instance's pool, created on first need
+/// (mj_copyModel: microseconds; mj_makeData: about 0.1 ms and 13.5 MB of arena) and returned at
+/// the end of the call; the file's model itself is shared and never written. clone() gives an
+/// independent instance with its own pool and one workspace.
+class DescriptionPrior : public model::MeanFunction {
+ public:
+  /// Loads options.file with MuJoCo. Throws InvalidArgument naming the file when the options are
+  /// invalid, the file cannot be read or does not parse (with MuJoCo's message), it has a
+  /// floating base or a ball joint, a joint or body named in the options or the parameters is
+  /// not in it (the message lists the names it has), or a name is not a parameter.
+  explicit DescriptionPrior(const DescriptionPriorOptions& options);
+  ~DescriptionPrior() override;
+  DescriptionPrior(const DescriptionPrior& other);
+  DescriptionPrior& operator=(const DescriptionPrior&) = delete;
+
+  /// 2n: the joints' positions then velocities.
+  int state_dim() const override;
+  /// m: the driven joints.
+  int action_dim() const override;
+  /// The options' parameters (dim P).
+  std::vector<std::string> parameter_names() const override;
+  /// Throws InvalidArgument naming the parameter and the file when phi (dim P) has the wrong size
+  /// or a value outside its domain (a negative mass, damping, friction, armature or gravity, an
+  /// inertia scale <= 0, anything not finite).
+  void check_phi(const VectorXd& phi) const override;
+  /// dx = M(x, u; phi): x dim 2n, u dim m, phi dim P (assumed checked), dx dim 2n. Thread-safe.
+  void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
+                Eigen::Ref<VectorXd> dx) const override;
+  /// Every row of X (B x 2n) and U (B x m) with one workspace, phi written once; dX B x 2n.
+  /// Thread-safe.
+  void evaluate_batch(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi,
+                      MatrixXd& dX) const override;
+  std::unique_ptr<model::MeanFunction> clone() const override;
+
+  /// The file's values of parameter_names() (dim P): the start of phi (gear 1).
+  VectorXd default_phi() const;
+  /// Joint accelerations qdd (dim n, rad/s^2 or m/s^2) at x (dim 2n) under u (dim m) and phi
+  /// (dim P, assumed checked): one mj_forward, the friction and gear applied. Thread-safe.
+  VectorXd joint_accelerations(const VectorXd& x, const VectorXd& u, const VectorXd& phi) const;
+  /// The state's joints (dim n), the driven joints (dim m), the model's bodies (the world
+  /// excluded): names as in the file.
+  const std::vector<std::string>& joint_names() const;
+  const std::vector<std::string>& actuated_joint_names() const;
+  std::vector<std::string> body_names() const;
+  /// Every parameter name the file offers, in the order bodies, joints, gravity.
+  std::vector<std::string> available_parameters() const;
+  const DescriptionPriorOptions& options() const;
+
+ private:
+  std::shared_ptr<const detail::PriorModel> loaded_;
+  std::unique_ptr<detail::WorkspacePool> pool_;
+};
+
+}  // namespace drops::description

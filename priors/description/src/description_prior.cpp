@@ -1,0 +1,563 @@
+#include "drops/description/description_prior.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <mutex>
+#include <regex>
+#include <sstream>
+
+#include "drops/core/errors.hpp"
+
+namespace drops::description {
+namespace {
+
+std::string join(const std::vector<std::string>& names) {
+  if (names.empty()) return "(none)";
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidArgument("description prior: cannot read the file '" + path + "'");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool is_urdf(const std::string& text) {
+  // The root element: whichever of <robot> and <mujoco> comes first outside comments.
+  const std::string t = std::regex_replace(text, std::regex("<!--[\\s\\S]*?-->"), "");
+  std::smatch m;
+  if (!std::regex_search(t, m, std::regex("<(robot|mujoco)[\\s>/]"))) return false;
+  return m[1] == "robot";
+}
+
+// A URDF as the prior loads it (DescriptionPriorOptions::file): no comments, collisions or
+// visuals; the undeclared `world` link declared; fixed links kept as bodies of their own.
+std::string prepare_urdf(std::string urdf) {
+  urdf = std::regex_replace(urdf, std::regex("<!--[\\s\\S]*?-->"), "");
+  for (const char* tag : {"collision", "visual"}) {
+    const std::string t(tag);
+    urdf = std::regex_replace(urdf, std::regex("<" + t + "\\b[^>]*/>"), "");
+    urdf = std::regex_replace(urdf, std::regex("<" + t + "\\b[\\s\\S]*?</" + t + "\\s*>"), "");
+  }
+  const auto robot = urdf.find("<robot");
+  const auto end = urdf.find('>', robot);
+  std::string insert = "\n<mujoco><compiler fusestatic=\"false\" discardvisual=\"true\"/></mujoco>";
+  if (urdf.find("\"world\"") != std::string::npos &&
+      !std::regex_search(urdf, std::regex("<link\\s+name\\s*=\\s*\"world\"")))
+    insert += "\n<link name=\"world\"/>";
+  urdf.insert(end + 1, insert);
+  return urdf;
+}
+
+mjModel* load_model(const std::string& path) {
+  const std::string text = read_text(path);
+  char error[1000] = "";
+  mjModel* m = nullptr;
+  if (is_urdf(text)) {
+    const std::string urdf = prepare_urdf(text);
+    auto vfs = std::make_unique<mjVFS>();
+    mj_defaultVFS(vfs.get());
+    if (mj_makeEmptyFileVFS(vfs.get(), "robot.urdf", static_cast<int>(urdf.size())) != 0)
+      throw InvalidArgument("description prior: '" + path + "': MuJoCo's VFS refused the file");
+    std::memcpy(vfs->filedata[vfs->nfile - 1], urdf.data(), urdf.size());
+    m = mj_loadXML("robot.urdf", vfs.get(), error, sizeof error);
+    mj_deleteVFS(vfs.get());
+  } else {
+    m = mj_loadXML(path.c_str(), nullptr, error, sizeof error);
+  }
+  if (!m)
+    throw InvalidArgument("description prior: the file '" + path +
+                          "' does not load as a URDF or MJCF model: " + error);
+  return m;
+}
+
+}  // namespace
+
+namespace detail {
+
+enum class Kind { kMass, kCom, kInertia, kDamping, kFriction, kArmature, kGear, kGravity };
+
+struct Param {
+  Kind kind;
+  int index = 0;  // body id (mass, com, inertia) or dof address (joint kinds)
+  int axis = 0;   // com: 0, 1, 2
+};
+
+}  // namespace detail
+
+namespace {
+
+using detail::Kind;
+using detail::Param;
+
+constexpr const char* kBodyKinds[] = {"mass", "com.x", "com.y", "com.z", "inertia"};
+constexpr const char* kJointKinds[] = {"damping", "friction", "armature", "gear"};
+
+}  // namespace
+
+bool DescriptionPriorOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (file.empty()) return fail("file: empty (a URDF or MJCF file is needed)");
+  if (!(dt > 0) || !std::isfinite(dt)) return fail("dt: expected > 0 s, got " + std::to_string(dt));
+  if (substeps < 1) return fail("substeps: expected >= 1, got " + std::to_string(substeps));
+  if (!(coulomb_velocity > 0) || !std::isfinite(coulomb_velocity))
+    return fail("coulomb_velocity: expected > 0, got " + std::to_string(coulomb_velocity));
+  return true;
+}
+
+namespace detail {
+
+struct PriorModel {
+  DescriptionPriorOptions options;
+  mjModel* model = nullptr;  // the file's, never written after the constructor
+  std::vector<std::string> joints, actuated, bodies;
+  std::vector<int> qpos, dof;  // per state joint
+  std::vector<int> actuated_dof;
+  std::vector<double> friction;  // per dof: the file's Coulomb friction (f_c)
+  std::vector<Param> params;
+  VectorXd defaults;
+  std::array<double, 3> gravity_direction{0, 0, -1};
+  ~PriorModel() {
+    if (model) mj_deleteModel(model);
+  }
+  std::string where() const { return "description prior '" + options.file + "'"; }
+};
+
+struct Workspace {
+  mjModel* m = nullptr;
+  mjData* d = nullptr;
+  std::vector<double> friction, gear;  // per dof, phi written
+  std::vector<double> tau;             // per dof: the driven joints' torques, gear applied
+  // RK4 scratch: the state (q, v), a stage's (qs, vs), the four stages' derivatives (4 n each).
+  std::vector<double> q, v, qs, vs, kq, kv;
+  explicit Workspace(const PriorModel& l) {
+    m = mj_copyModel(nullptr, l.model);
+    d = mj_makeData(m);
+    if (!m || !d) throw NumericalError(l.where() + ": MuJoCo could not copy its model");
+    friction = l.friction;
+    gear.assign(m->nv, 1.0);
+    const size_t n = l.dof.size();
+    for (auto* b : {&q, &v, &qs, &vs}) b->assign(n, 0.0);
+    kq.assign(4 * n, 0.0);
+    kv.assign(4 * n, 0.0);
+    tau.assign(m->nv, 0.0);
+  }
+  ~Workspace() {
+    if (d) mj_deleteData(d);
+    if (m) mj_deleteModel(m);
+  }
+  Workspace(const Workspace&) = delete;
+  Workspace& operator=(const Workspace&) = delete;
+};
+
+// Workspaces leased one per call: concurrent const calls never share one.
+class WorkspacePool {
+ public:
+  explicit WorkspacePool(std::shared_ptr<const PriorModel> l) : loaded_(std::move(l)) {}
+  struct Lease {
+    WorkspacePool* pool;
+    std::unique_ptr<Workspace> ws;
+    ~Lease() {
+      std::lock_guard<std::mutex> lock(pool->mutex_);
+      pool->free_.push_back(std::move(ws));
+    }
+  };
+  /// A workspace for one call, back in the pool when the lease ends.
+  Lease lease() { return Lease{this, take()}; }
+
+ private:
+  std::unique_ptr<Workspace> take() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!free_.empty()) {
+        auto ws = std::move(free_.back());
+        free_.pop_back();
+        return ws;
+      }
+    }
+    return std::make_unique<Workspace>(*loaded_);
+  }
+
+  std::shared_ptr<const PriorModel> loaded_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<Workspace>> free_;
+};
+
+}  // namespace detail
+
+using detail::PriorModel;
+using detail::Workspace;
+using detail::WorkspacePool;
+
+DescriptionPrior::DescriptionPrior(const DescriptionPriorOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why))
+    throw InvalidArgument("description prior '" + options.file + "': " + why);
+  auto l = std::make_shared<PriorModel>();
+  l->options = options;
+  l->model = load_model(options.file);
+  mjModel* m = l->model;
+
+  std::vector<std::string> file_joints;
+  for (int j = 0; j < m->njnt; ++j) {
+    const char* name = mj_id2name(m, mjOBJ_JOINT, j);
+    file_joints.push_back(name ? name : "joint #" + std::to_string(j));
+  }
+  for (int j = 0; j < m->njnt; ++j) {
+    if (m->jnt_type[j] == mjJNT_FREE)
+      throw InvalidArgument(l->where() + ": the joint '" + file_joints[j] +
+                            "' is free (a floating base); the prior needs a fixed base");
+    if (m->jnt_type[j] == mjJNT_BALL)
+      throw InvalidArgument(l->where() + ": the joint '" + file_joints[j] +
+                            "' is a ball joint; the prior takes hinge and slide joints only");
+  }
+  for (int b = 1; b < m->nbody; ++b)
+    if (const char* name = mj_id2name(m, mjOBJ_BODY, b)) l->bodies.push_back(name);
+
+  auto joint_id = [&](const std::string& name, const char* what) {
+    const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+    if (j < 0)
+      throw InvalidArgument(l->where() + ": " + what + ": no joint named '" + name +
+                            "'; the file's joints: " + join(file_joints));
+    return j;
+  };
+  std::vector<int> state_joints;
+  if (options.joints.empty()) {
+    for (int j = 0; j < m->njnt; ++j) state_joints.push_back(j);
+  } else {
+    for (const auto& name : options.joints) {
+      const int j = joint_id(name, "joints");
+      if (std::find(state_joints.begin(), state_joints.end(), j) != state_joints.end())
+        throw InvalidArgument(l->where() + ": joints: '" + name + "' is listed twice");
+      state_joints.push_back(j);
+    }
+    for (int j = 0; j < m->njnt; ++j)
+      if (std::find(state_joints.begin(), state_joints.end(), j) == state_joints.end())
+        throw InvalidArgument(l->where() + ": joints: the file's joint '" + file_joints[j] +
+                              "' is not in the state (every joint that moves must be); the "
+                              "file's joints: " +
+                              join(file_joints));
+  }
+  if (state_joints.empty()) throw InvalidArgument(l->where() + ": the file has no joint");
+  for (int j : state_joints) {
+    l->joints.push_back(file_joints[j]);
+    l->qpos.push_back(m->jnt_qposadr[j]);
+    l->dof.push_back(m->jnt_dofadr[j]);
+  }
+  const auto& actuated = options.actuated.empty() ? l->joints : options.actuated;
+  for (const auto& name : actuated) {
+    const int j = joint_id(name, "actuated");
+    const int d = m->jnt_dofadr[j];
+    if (std::find(l->actuated_dof.begin(), l->actuated_dof.end(), d) != l->actuated_dof.end())
+      throw InvalidArgument(l->where() + ": actuated: '" + name + "' is listed twice");
+    l->actuated.push_back(name);
+    l->actuated_dof.push_back(d);
+  }
+
+  // What the prior turns off: limits, contacts, MuJoCo's actuators; friction applied by drops.
+  l->friction.assign(m->nv, 0.0);
+  for (int d = 0; d < m->nv; ++d) {
+    l->friction[d] = m->dof_frictionloss[d];
+    m->dof_frictionloss[d] = 0;
+  }
+  for (int j = 0; j < m->njnt; ++j) m->jnt_limited[j] = 0;
+  m->opt.disableflags |= mjDSBL_CONTACT | mjDSBL_ACTUATION;
+  const double g =
+      std::sqrt(m->opt.gravity[0] * m->opt.gravity[0] + m->opt.gravity[1] * m->opt.gravity[1] +
+                m->opt.gravity[2] * m->opt.gravity[2]);
+  if (g > 0)
+    for (int k = 0; k < 3; ++k) l->gravity_direction[k] = m->opt.gravity[k] / g;
+
+  // phi by name.
+  l->defaults.resize(static_cast<Eigen::Index>(options.parameters.size()));
+  for (size_t i = 0; i < options.parameters.size(); ++i) {
+    const std::string& name = options.parameters[i];
+    Param p{Kind::kGravity};
+    double value = g;
+    const auto unknown = [&](const std::string& why) {
+      return InvalidArgument(l->where() + ": parameter '" + name + "': " + why);
+    };
+    if (name != "gravity") {
+      // <item>.<kind>, where the kind may itself hold a dot (com.x).
+      std::string item, kind;
+      for (const char* k : kBodyKinds)
+        if (name.size() > std::strlen(k) + 1 && name.ends_with(std::string(".") + k)) kind = k;
+      for (const char* k : kJointKinds)
+        if (name.size() > std::strlen(k) + 1 && name.ends_with(std::string(".") + k)) kind = k;
+      if (kind.empty())
+        throw unknown(
+            "not a parameter; a parameter is <body>.mass|com.x|com.y|com.z|inertia, "
+            "<joint>.damping|friction|armature|gear or gravity");
+      item = name.substr(0, name.size() - kind.size() - 1);
+      const bool body_kind =
+          std::find_if(std::begin(kBodyKinds), std::end(kBodyKinds),
+                       [&](const char* k) { return kind == k; }) != std::end(kBodyKinds);
+      if (body_kind) {
+        const int b = mj_name2id(m, mjOBJ_BODY, item.c_str());
+        if (b <= 0)
+          throw unknown("no body (link) named '" + item +
+                        "'; the file's bodies: " + join(l->bodies));
+        p.index = b;
+        if (kind == "mass") {
+          p.kind = Kind::kMass;
+          value = m->body_mass[b];
+        } else if (kind == "inertia") {
+          p.kind = Kind::kInertia;
+          value = 1.0;
+        } else {
+          p.kind = Kind::kCom;
+          p.axis = kind.back() - 'x';
+          value = m->body_ipos[3 * b + p.axis];
+        }
+      } else {
+        const int j = mj_name2id(m, mjOBJ_JOINT, item.c_str());
+        if (j < 0)
+          throw unknown("no joint named '" + item + "'; the file's joints: " + join(file_joints));
+        const int d = m->jnt_dofadr[j];
+        p.index = d;
+        if (kind == "damping") {
+          p.kind = Kind::kDamping;
+          value = m->dof_damping[d];
+        } else if (kind == "friction") {
+          p.kind = Kind::kFriction;
+          value = l->friction[d];
+        } else if (kind == "armature") {
+          p.kind = Kind::kArmature;
+          value = m->dof_armature[d];
+        } else {
+          if (std::find(l->actuated_dof.begin(), l->actuated_dof.end(), d) == l->actuated_dof.end())
+            throw unknown("the joint '" + item +
+                          "' is not driven; the driven joints: " + join(l->actuated));
+          p.kind = Kind::kGear;
+          value = 1.0;
+        }
+      }
+    }
+    for (size_t k = 0; k < i; ++k)
+      if (options.parameters[k] == name) throw unknown("listed twice");
+    l->params.push_back(p);
+    l->defaults[static_cast<Eigen::Index>(i)] = value;
+  }
+  loaded_ = std::move(l);
+  pool_ = std::make_unique<WorkspacePool>(loaded_);
+}
+
+DescriptionPrior::~DescriptionPrior() = default;
+
+DescriptionPrior::DescriptionPrior(const DescriptionPrior& other)
+    : model::MeanFunction(other),
+      loaded_(other.loaded_),
+      pool_(std::make_unique<WorkspacePool>(loaded_)) {
+  pool_->lease();  // one workspace ready: copies the model and makes its data
+}
+
+int DescriptionPrior::state_dim() const { return 2 * static_cast<int>(loaded_->joints.size()); }
+int DescriptionPrior::action_dim() const { return static_cast<int>(loaded_->actuated.size()); }
+std::vector<std::string> DescriptionPrior::parameter_names() const {
+  return loaded_->options.parameters;
+}
+const std::vector<std::string>& DescriptionPrior::joint_names() const { return loaded_->joints; }
+const std::vector<std::string>& DescriptionPrior::actuated_joint_names() const {
+  return loaded_->actuated;
+}
+std::vector<std::string> DescriptionPrior::body_names() const { return loaded_->bodies; }
+const DescriptionPriorOptions& DescriptionPrior::options() const { return loaded_->options; }
+VectorXd DescriptionPrior::default_phi() const { return loaded_->defaults; }
+
+std::vector<std::string> DescriptionPrior::available_parameters() const {
+  std::vector<std::string> names;
+  for (const auto& b : loaded_->bodies)
+    for (const char* k : kBodyKinds) names.push_back(b + "." + k);
+  for (const auto& j : loaded_->joints) {
+    for (const char* k : kJointKinds) {
+      if (std::string(k) == "gear" && std::find(loaded_->actuated.begin(), loaded_->actuated.end(),
+                                                j) == loaded_->actuated.end())
+        continue;
+      names.push_back(j + "." + k);
+    }
+  }
+  names.push_back("gravity");
+  return names;
+}
+
+void DescriptionPrior::check_phi(const VectorXd& phi) const {
+  const auto& l = *loaded_;
+  if (phi.size() != static_cast<Eigen::Index>(l.params.size()))
+    throw InvalidArgument(l.where() + ": phi: expected size " + std::to_string(l.params.size()) +
+                          ", got " + std::to_string(phi.size()));
+  for (size_t i = 0; i < l.params.size(); ++i) {
+    const double v = phi[static_cast<Eigen::Index>(i)];
+    const std::string& name = l.options.parameters[i];
+    auto bad = [&](const char* allowed) {
+      return InvalidArgument(l.where() + ": " + name + " = " + std::to_string(v) + ": expected " +
+                             allowed);
+    };
+    if (!std::isfinite(v)) throw bad("a finite value");
+    switch (l.params[i].kind) {
+      case Kind::kInertia:
+        if (!(v > 0)) throw bad("> 0 (a scale of the file's inertia)");
+        break;
+      case Kind::kMass:
+      case Kind::kDamping:
+      case Kind::kFriction:
+      case Kind::kArmature:
+      case Kind::kGravity:
+        if (v < 0) throw bad(">= 0");
+        break;
+      case Kind::kCom:
+      case Kind::kGear:
+        break;
+    }
+  }
+}
+
+// Writes phi into the workspace's model (every phi entry, so what a previous call wrote is
+// overwritten; the rest stays the file's).
+namespace {
+
+void write_phi_impl(const mjModel* file, const std::vector<Param>& params,
+                    const std::array<double, 3>& gdir, mjModel* m, std::vector<double>& friction,
+                    std::vector<double>& gear, const VectorXd& phi) {
+  for (size_t i = 0; i < params.size(); ++i) {
+    const double v = phi[static_cast<Eigen::Index>(i)];
+    const Param& p = params[i];
+    switch (p.kind) {
+      case Kind::kMass:
+        m->body_mass[p.index] = v;
+        break;
+      case Kind::kCom:
+        m->body_ipos[3 * p.index + p.axis] = v;
+        break;
+      case Kind::kInertia:
+        for (int k = 0; k < 3; ++k)
+          m->body_inertia[3 * p.index + k] = v * file->body_inertia[3 * p.index + k];
+        break;
+      case Kind::kDamping:
+        m->dof_damping[p.index] = v;
+        break;
+      case Kind::kFriction:
+        friction[p.index] = v;
+        break;
+      case Kind::kArmature:
+        m->dof_armature[p.index] = v;
+        break;
+      case Kind::kGear:
+        gear[p.index] = v;
+        break;
+      case Kind::kGravity:
+        for (int k = 0; k < 3; ++k) m->opt.gravity[k] = v * gdir[k];
+        break;
+    }
+  }
+}
+
+// qdd at (ws.q, ws.v) into ws.acc: the driven joints' torques in ws.tau (per dof, gear applied),
+// the smooth Coulomb friction added here.
+void forward(const std::vector<int>& qpos, const std::vector<int>& dof, double vs, Workspace& w,
+             const double* q, const double* v, double* acc) {
+  mjModel* m = w.m;
+  mjData* d = w.d;
+  const size_t n = dof.size();
+  for (size_t i = 0; i < n; ++i) {
+    d->qpos[qpos[i]] = q[i];
+    d->qvel[dof[i]] = v[i];
+  }
+  for (int k = 0; k < m->nv; ++k)
+    d->qfrc_applied[k] = w.tau[k] - w.friction[k] * std::tanh(d->qvel[k] / vs);
+  mj_forward(m, d);
+  for (size_t i = 0; i < n; ++i) acc[i] = d->qacc[dof[i]];
+}
+
+}  // namespace
+
+void DescriptionPrior::evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
+                                Eigen::Ref<VectorXd> dx) const {
+  MatrixXd X = x.transpose(), U = u.transpose(), dX;
+  evaluate_batch(X, U, phi, dX);
+  dx = dX.row(0).transpose();
+}
+
+void DescriptionPrior::evaluate_batch(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi,
+                                      MatrixXd& dX) const {
+  const auto& l = *loaded_;
+  const int n = static_cast<int>(l.dof.size());
+  check_size("description prior: X's columns (2 x the joints)", 2 * n, X.cols());
+  check_size("description prior: U's columns (the driven joints)",
+             static_cast<long>(l.actuated_dof.size()), U.cols());
+  check_size("description prior: U's rows (one per row of X)", X.rows(), U.rows());
+  check_size("description prior: phi", static_cast<long>(l.params.size()), phi.size());
+  auto lease = pool_->lease();
+  Workspace& w = *lease.ws;
+  write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
+  const double h = l.options.dt / l.options.substeps, v_s = l.options.coulomb_velocity;
+  dX.resize(X.rows(), 2 * n);
+  auto &kq = w.kq, &kv = w.kv, &qs = w.qs, &vs = w.vs;
+  for (Eigen::Index b = 0; b < X.rows(); ++b) {
+    std::fill(w.tau.begin(), w.tau.end(), 0.0);
+    for (size_t a = 0; a < l.actuated_dof.size(); ++a) {
+      const int d = l.actuated_dof[a];
+      w.tau[d] = w.gear[d] * U(b, static_cast<Eigen::Index>(a));
+    }
+    for (int i = 0; i < n; ++i) {
+      w.q[i] = X(b, i);
+      w.v[i] = X(b, n + i);
+    }
+    for (int s = 0; s < l.options.substeps; ++s) {
+      // Classical RK4 on (q, v): stage c at (q + a_c h kq_{c-1}, v + a_c h kv_{c-1}).
+      for (int c = 0; c < 4; ++c) {
+        const double a = c == 0 ? 0.0 : (c == 3 ? h : 0.5 * h);
+        for (int i = 0; i < n; ++i) {
+          qs[i] = w.q[i] + (c ? a * kq[(c - 1) * n + i] : 0.0);
+          vs[i] = w.v[i] + (c ? a * kv[(c - 1) * n + i] : 0.0);
+          kq[c * n + i] = vs[i];
+        }
+        forward(l.qpos, l.dof, v_s, w, qs.data(), vs.data(), &kv[c * n]);
+      }
+      for (int i = 0; i < n; ++i) {
+        w.q[i] += h / 6 * (kq[i] + 2 * kq[n + i] + 2 * kq[2 * n + i] + kq[3 * n + i]);
+        w.v[i] += h / 6 * (kv[i] + 2 * kv[n + i] + 2 * kv[2 * n + i] + kv[3 * n + i]);
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      dX(b, i) = w.q[i] - X(b, i);
+      dX(b, n + i) = w.v[i] - X(b, n + i);
+    }
+  }
+}
+
+VectorXd DescriptionPrior::joint_accelerations(const VectorXd& x, const VectorXd& u,
+                                               const VectorXd& phi) const {
+  const auto& l = *loaded_;
+  const int n = static_cast<int>(l.dof.size());
+  check_size("description prior: x (2 x the joints)", 2 * n, x.size());
+  check_size("description prior: u (the driven joints)", static_cast<long>(l.actuated_dof.size()),
+             u.size());
+  check_size("description prior: phi", static_cast<long>(l.params.size()), phi.size());
+  auto lease = pool_->lease();
+  Workspace& w = *lease.ws;
+  write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
+  std::fill(w.tau.begin(), w.tau.end(), 0.0);
+  for (size_t a = 0; a < l.actuated_dof.size(); ++a)
+    w.tau[l.actuated_dof[a]] = w.gear[l.actuated_dof[a]] * u[static_cast<Eigen::Index>(a)];
+  VectorXd acc(n);
+  forward(l.qpos, l.dof, l.options.coulomb_velocity, w, x.data(), x.data() + n, acc.data());
+  return acc;
+}
+
+std::unique_ptr<model::MeanFunction> DescriptionPrior::clone() const {
+  return std::make_unique<DescriptionPrior>(*this);
+}
+
+}  // namespace drops::description
