@@ -2,13 +2,14 @@
 # scripts/check-layout can fail: on a copy of the sources (include/ src/ tasks/ apps/ scripts/) it
 # passes, then fails on an include cycle between folders made on purpose (src/gp including
 # drops/algo, while algo includes gp) and names the cycle's new edge, then fails on a DART include
-# outside tasks/hexapod (src/core/parallel.cpp) and names the file. The sources are not touched.
+# outside tasks/hexapod (src/core/parallel.cpp) and names the file, then on a MuJoCo include outside
+# priors/ and bench/ (the same file). The sources are not touched.
 # Usage: tests/check_layout_test.sh SOURCE_DIR
 set -euo pipefail
 src=$1
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-for d in include src tasks apps scripts; do
+for d in include src tasks priors apps scripts; do
   [ -d "$src/$d" ] && cp -r "$src/$d" "$dir/"
 done
 fails=0
@@ -49,6 +50,13 @@ cp "$dir/src/core/parallel.cpp" "$dir/parallel.cpp.orig"
 sed -i '1i #include <dart/dynamics/Skeleton.hpp>' "$dir/src/core/parallel.cpp"
 check "a DART include in src/core fails" 1 "DART is included outside tasks/hexapod" \
   "src/core/parallel.cpp:1:#include <dart/dynamics/Skeleton.hpp>"
+mv "$dir/parallel.cpp.orig" "$dir/src/core/parallel.cpp"
+
+# MuJoCo outside priors/ and bench/.
+cp "$dir/src/core/parallel.cpp" "$dir/parallel.cpp.orig"
+sed -i '1i #include <mujoco/mujoco.h>' "$dir/src/core/parallel.cpp"
+check "a MuJoCo include in src/core fails" 1 "MuJoCo is included outside priors/ and bench/" \
+  "src/core/parallel.cpp:1:#include <mujoco/mujoco.h>"
 mv "$dir/parallel.cpp.orig" "$dir/src/core/parallel.cpp"
 
 check "the sources restored hold the rules again" 0 "the dependency rules hold"
