@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -313,6 +314,43 @@ TEST(DescriptionPrior, AnMjcfFileLoadsAndAgreesWithTheAnalyticModel) {
   EXPECT_LT(err, 1e-10);  // measured: 1.4e-13 rad/s^2
 }
 
+TEST(DescriptionPrior, CollisionMeshesThatAreMissingAndCommentsDoNotMatter) {
+  // The DFKI file's visual meshes are absent already; a collision mesh (also absent) and a
+  // comment holding markup are dropped before MuJoCo sees the file.
+  std::ifstream in(kDfki);
+  std::string urdf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string link2 = "<link\n    name=\"Link2\">";
+  const auto at = urdf.find(link2);
+  ASSERT_NE(at, std::string::npos);
+  urdf.insert(at + link2.size(),
+              "\n<!-- <visual><geometry><box size=\"1 1 1\"/></geometry></visual> -->"
+              "\n<collision><geometry><mesh filename=\"package://nowhere/Link2.stl\"/>"
+              "</geometry></collision>\n<collision/>");
+  DescriptionPriorOptions o;
+  o.file = write_temp("with_collisions.urdf", urdf);
+  o.parameters = kAllPhi;
+  const DescriptionPrior prior(o);
+  const auto reference = dfki_prior();
+  const States s = random_states(20, 5.0, 2.0, 8);
+  MatrixXd a, b;
+  prior.evaluate_batch(s.x, s.u, changed_phi(), a);
+  reference.evaluate_batch(s.x, s.u, changed_phi(), b);
+  EXPECT_EQ(a, b);
+}
+
+TEST(DescriptionPrior, ANonFiniteStateGivesANonFiniteRowAndLeavesTheOthers) {
+  const auto prior = dfki_prior();
+  States s = random_states(3, 5.0, 2.0, 9);
+  MatrixXd ref;
+  prior.evaluate_batch(s.x, s.u, prior.default_phi(), ref);
+  s.x(1, 0) = std::nan("");
+  MatrixXd dX;
+  prior.evaluate_batch(s.x, s.u, prior.default_phi(), dX);
+  EXPECT_FALSE(dX.row(1).allFinite());
+  EXPECT_EQ(dX.row(0), ref.row(0));
+  EXPECT_EQ(dX.row(2), ref.row(2));
+}
+
 TEST(DescriptionPrior, ClonesAndConcurrentCallsGiveTheSameNumbersAsOneCall) {
   const auto prior = dfki_prior();
   const States s = random_states(100, 5.0, 2.0, 7);
@@ -348,6 +386,12 @@ TEST(DescriptionPrior, BadFilesAndNamesGiveErrorsNamingTheFileAndTheItem) {
   e = error_of([&] { DescriptionPrior p(o); });
   EXPECT_NE(e.find("broken.urdf"), std::string::npos) << e;
   EXPECT_NE(e.find("does not load"), std::string::npos) << e;
+
+  o.file =
+      write_temp("model.sdf", "<?xml version=\"1.0\"?>\n<!-- <robot> -->\n<sdf version=\"1.6\"/>");
+  e = error_of([&] { DescriptionPrior p(o); });
+  EXPECT_NE(e.find("model.sdf"), std::string::npos) << e;
+  EXPECT_NE(e.find("its root element is <sdf>"), std::string::npos) << e;
 
   e = error_of([] { dfki_prior({"Link3.mass"}); });
   EXPECT_NE(e.find(kDfki), std::string::npos) << e;

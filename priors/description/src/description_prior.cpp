@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -31,26 +32,85 @@ std::string read_text(const std::string& path) {
   return s.str();
 }
 
-bool is_urdf(const std::string& text) {
-  // The root element: whichever of <robot> and <mujoco> comes first outside comments.
-  const std::string t = std::regex_replace(text, std::regex("<!--[\\s\\S]*?-->"), "");
-  std::smatch m;
-  if (!std::regex_search(t, m, std::regex("<(robot|mujoco)[\\s>/]"))) return false;
-  return m[1] == "robot";
+// The text without its XML comments. (Plain scanning: std::regex recurses per character and
+// overflows the stack on the long matches of a large file.)
+std::string strip_comments(const std::string& text) {
+  std::string out;
+  size_t pos = 0;
+  while (true) {
+    const size_t open = text.find("<!--", pos);
+    if (open == std::string::npos) break;
+    out.append(text, pos, open - pos);
+    const size_t close = text.find("-->", open + 4);
+    if (close == std::string::npos) return out;  // an unclosed comment: MuJoCo will say so
+    pos = close + 3;
+  }
+  out.append(text, pos, std::string::npos);
+  return out;
+}
+
+// Whether text[pos] starts the element <tag (followed by a space, '>' or '/').
+bool starts_element(const std::string& text, size_t pos, const std::string& tag) {
+  if (text.compare(pos, tag.size() + 1, "<" + tag) != 0) return false;
+  const size_t after = pos + tag.size() + 1;
+  return after < text.size() && (std::isspace(static_cast<unsigned char>(text[after])) ||
+                                 text[after] == '>' || text[after] == '/');
+}
+
+// The text without the elements <tag .../> and <tag ...>...</tag> (not nested in themselves).
+std::string remove_elements(const std::string& text, const std::string& tag) {
+  std::string out;
+  size_t pos = 0, at = 0;
+  while ((at = text.find("<" + tag, at)) != std::string::npos) {
+    if (!starts_element(text, at, tag)) {
+      ++at;
+      continue;
+    }
+    const size_t gt = text.find('>', at);
+    if (gt == std::string::npos) break;
+    size_t end = gt + 1;
+    if (text[gt - 1] != '/') {
+      const size_t close = text.find("</" + tag, gt);
+      if (close == std::string::npos) break;
+      end = text.find('>', close);
+      if (end == std::string::npos) break;
+      ++end;
+    }
+    out.append(text, pos, at - pos);
+    pos = at = end;
+  }
+  out.append(text, pos, std::string::npos);
+  return out;
+}
+
+// The name of the root element of text without comments ("" if none).
+std::string root_element(const std::string& text) {
+  size_t at = 0;
+  while ((at = text.find('<', at)) != std::string::npos) {
+    ++at;
+    if (at < text.size() && std::isalpha(static_cast<unsigned char>(text[at]))) {
+      size_t end = at;
+      while (end < text.size() && (std::isalnum(static_cast<unsigned char>(text[end])) ||
+                                   text[end] == '_' || text[end] == '-' || text[end] == ':'))
+        ++end;
+      return text.substr(at, end - at);
+    }
+  }
+  return "";
 }
 
 // A URDF as the prior loads it (DescriptionPriorOptions::file): no comments, collisions or
 // visuals; the undeclared `world` link declared; fixed links kept as bodies of their own.
-std::string prepare_urdf(std::string urdf) {
-  urdf = std::regex_replace(urdf, std::regex("<!--[\\s\\S]*?-->"), "");
-  for (const char* tag : {"collision", "visual"}) {
-    const std::string t(tag);
-    urdf = std::regex_replace(urdf, std::regex("<" + t + "\\b[^>]*/>"), "");
-    urdf = std::regex_replace(urdf, std::regex("<" + t + "\\b[\\s\\S]*?</" + t + "\\s*>"), "");
-  }
-  const auto robot = urdf.find("<robot");
-  const auto end = urdf.find('>', robot);
+std::string prepare_urdf(const std::string& text) {
+  std::string urdf = remove_elements(remove_elements(text, "collision"), "visual");
+  size_t robot = 0;
+  while ((robot = urdf.find("<robot", robot)) != std::string::npos &&
+         !starts_element(urdf, robot, "robot"))
+    ++robot;
+  const size_t end = urdf.find('>', robot);
   std::string insert = "\n<mujoco><compiler fusestatic=\"false\" discardvisual=\"true\"/></mujoco>";
+  // The DFKI file's joint base_weld names a parent link "world" that it does not declare, which
+  // MuJoCo (and urdfdom) refuse: declare it.
   if (urdf.find("\"world\"") != std::string::npos &&
       !std::regex_search(urdf, std::regex("<link\\s+name\\s*=\\s*\"world\"")))
     insert += "\n<link name=\"world\"/>";
@@ -58,11 +118,24 @@ std::string prepare_urdf(std::string urdf) {
   return urdf;
 }
 
+// mj_loadXML is not documented as thread-safe in MuJoCo 2.2: one load at a time.
+std::mutex& load_mutex() {
+  static std::mutex m;
+  return m;
+}
+
 mjModel* load_model(const std::string& path) {
-  const std::string text = read_text(path);
+  const std::string text = strip_comments(read_text(path));
+  const std::string root = root_element(text);
+  if (root != "robot" && root != "mujoco")
+    throw InvalidArgument("description prior: the file '" + path +
+                          "' is neither a URDF (<robot>) nor an MJCF (<mujoco>) file: its root "
+                          "element is " +
+                          (root.empty() ? std::string("missing") : "<" + root + ">"));
   char error[1000] = "";
   mjModel* m = nullptr;
-  if (is_urdf(text)) {
+  std::lock_guard<std::mutex> lock(load_mutex());
+  if (root == "robot") {
     const std::string urdf = prepare_urdf(text);
     auto vfs = std::make_unique<mjVFS>();
     mj_defaultVFS(vfs.get());
