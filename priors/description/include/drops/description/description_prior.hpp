@@ -39,8 +39,11 @@ struct DescriptionPriorOptions {
   /// elements are dropped (the prior needs neither: contacts are off, the links' <inertial> give
   /// the masses), an undeclared `world` link that a joint names as parent is declared, and links
   /// fixed to their parent stay bodies of their own (MuJoCo's fusestatic off), so each link's
-  /// phi is the file's <inertial> of that link. An MJCF is loaded from its path as written
-  /// (includes and meshes relative to it).
+  /// phi is the file's <inertial> of that link (MuJoCo would otherwise fuse the DFKI file's
+  /// massless `Weight` into `Link2` and `base_link` into the world, and their names would be
+  /// gone). An MJCF is loaded from its path as written (includes and meshes relative to it); one
+  /// that sets <compiler fusestatic="true"/> has its fused bodies' names no more, and an unknown
+  /// name's error lists the bodies left.
   std::string file;
   /// The joints of the state, in this order (hinge or slide joints; names as in the file). Empty:
   /// every joint of the model in the model's order (depth-first through the kinematic tree, for a
