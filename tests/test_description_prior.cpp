@@ -351,7 +351,7 @@ TEST(DescriptionPrior, ANonFiniteStateGivesANonFiniteRowAndLeavesTheOthers) {
   EXPECT_EQ(dX.row(2), ref.row(2));
 }
 
-TEST(DescriptionPrior, ClonesAndConcurrentCallsGiveTheSameNumbersAsOneCall) {
+TEST(DescriptionPrior, ClonesAndTwoThreadsOnOneInstanceGiveTheSameNumbersAsOneThread) {
   const auto prior = dfki_prior();
   const States s = random_states(100, 5.0, 2.0, 7);
   const VectorXd phi_a = prior.default_phi(), phi_b = changed_phi();
