@@ -217,8 +217,11 @@ struct Workspace {
   std::vector<double> q, v, qs, vs, kq, kv;
   explicit Workspace(const PriorModel& l) {
     m = mj_copyModel(nullptr, l.model);
-    d = mj_makeData(m);
-    if (!m || !d) throw NumericalError(l.where() + ": MuJoCo could not copy its model");
+    d = m ? mj_makeData(m) : nullptr;
+    if (!d) {
+      if (m) mj_deleteModel(m);
+      throw NumericalError(l.where() + ": MuJoCo could not copy its model or make its data");
+    }
     friction = l.friction;
     gear.assign(m->nv, 1.0);
     const size_t n = l.dof.size();
