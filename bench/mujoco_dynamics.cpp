@@ -31,6 +31,7 @@
 
 #include "double_pendulum.hpp"
 #include "drops/core/rng.hpp"
+#include "drops/description/description_prior.hpp"
 
 namespace {
 
@@ -346,6 +347,21 @@ std::vector<double> coulomb_of(const DoublePendulumParams& p) {
   return {p.coulomb[0], p.coulomb[1]};
 }
 
+// drops::description's prior on the same states: one control step (10 x 1 ms RK4 through
+// mj_forward, smooth friction, phi written into its workspace once per batch), CPU time per state.
+double time_description_prior(const std::string& file, const std::vector<std::string>& phi_names,
+                              const Batch& s, int repeats) {
+  drops::description::DescriptionPriorOptions po;
+  po.file = file;
+  po.parameters = phi_names;
+  const drops::description::DescriptionPrior prior(po);
+  MatrixXd x(s.q.rows(), 2 * s.q.cols()), dx;
+  x << s.q, s.qd;
+  const drops::VectorXd phi = prior.default_phi();
+  return time_per([&] { prior.evaluate_batch(x, s.tau, phi, dx); }, repeats,
+                  static_cast<double>(s.q.rows()));
+}
+
 // ---------------------------------------------------------------------------------------------
 
 struct Options {
@@ -445,6 +461,15 @@ void double_pendulum(const Options& o, const std::string& urdf) {
   };
   row("analytic (tests/double_pendulum.hpp)", analytic_forward(file), nullptr);
   row("MuJoCo mj_forward / mj_step", mj_fwd, [&] { batch_native_step(mj, fc, s); });
+  std::printf(
+      "| drops::description::DescriptionPrior::evaluate_batch (17 phi) | | %.2f | |\n",
+      1e6 * time_description_prior(
+                DROPS_TEST_DATA "/double-pendulum-dfki/double_pendulum.urdf",
+                {"Link1.mass", "Link2.mass", "Link1.com.y", "Link1.com.z", "Link2.com.y",
+                 "Link2.com.z", "Link1.inertia", "Link2.inertia", "Joint1.damping",
+                 "Joint2.damping", "Joint1.friction", "Joint2.friction", "Joint1.armature",
+                 "Joint2.armature", "Joint1.gear", "Joint2.gear", "gravity"},
+                s, o.repeats));
   const auto changed = changed_phi();
   std::printf("\nWriting every phi (8 kinds, 2 bodies and 2 joints): %.3f us\n",
               1e6 * time_per([&] { write_phi(mj, changed); }, o.repeats, 1));
@@ -468,6 +493,10 @@ void arm(const Options& o, const std::string& urdf) {
               1e6 * time_per([&] { batch_rk4_step(mj_fwd, fc, s); }, o.repeats, o.batch));
   std::printf("| control step, 10 x 1 ms mj_step (semi-implicit Euler) | %.2f us per state |\n",
               1e6 * time_per([&] { batch_native_step(mj, fc, s); }, o.repeats, o.batch));
+  std::printf("| control step, drops::description::DescriptionPrior::evaluate_batch | %.2f us "
+              "per state |\n",
+              1e6 * time_description_prior(DROPS_TEST_DATA "/arm6.urdf", {"gravity"}, s,
+                                           o.repeats));
   std::printf("| load the URDF (mj_loadXML) | %.2f ms |\n",
               1e3 * time_per([&] { Mujoco m(urdf); }, o.repeats, 1));
   std::printf(
