@@ -230,8 +230,9 @@ def _text(value, what, limit=200):
     return value
 
 
-def _names(value, what, seen):
-    """A list of column names (drops's grammar), each new to `seen` (name -> where it was)."""
+def _names(value, what, seen, trajectory=True):
+    """A list of column names (drops's grammar), each new to `seen` (name -> where it was);
+    `trajectory`: columns of the trajectory files, where "t" and "reward" are taken."""
     if isinstance(value, (str, bytes)) or value is None:
         raise TypeError(f"{what}: expected a list of names, got {_shown(value)}")
     names = list(value)
@@ -242,12 +243,12 @@ def _names(value, what, seen):
             raise ValueError(f"{what}: {_shown(n)} is not a column name: 1 to 64 of A-Z a-z 0-9 _ "
                              ". (the first a letter or _); the run's files name their columns "
                              "with it")
-        if n in _RESERVED_COLUMNS:
+        if trajectory and n in _RESERVED_COLUMNS:
             raise ValueError(f"{what}: {n!r} is reserved (the trajectory files' own columns are "
                              f"{', '.join(_RESERVED_COLUMNS)})")
         if n in seen:
-            raise ValueError(f"{what}: {n!r} is named twice (already in {seen[n]}); the columns "
-                             "of a trajectory must be distinct")
+            raise ValueError(f"{what}: {n!r} is named twice (already in {seen[n]}); each name "
+                             "must be distinct")
         seen[n] = what
     return names
 
@@ -389,7 +390,7 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
     for i, p in enumerate(params):
         if not isinstance(p, Parameter):
             raise TypeError(f"{pname}.parameters[{i}]: expected drops.Parameter, got {_shown(p)}")
-        _names([p.name], f"{pname}.parameters", seen_params)
+        _names([p.name], f"{pname}.parameters", seen_params, trajectory=False)
         what = f"{pname}.parameters: {p.name}"
         values.append(_real(p.value, f"{what}.value"))
         lower.append(-_math.inf if p.lower == -_math.inf else _real(p.lower, f"{what}.lower"))

@@ -26,17 +26,6 @@ std::string phi_brief(const VectorXd& phi, const model::PriorParameters& p) {
   return s.empty() ? "none" : s;  // no prior (the gp variant, a direct search), hence no phi
 }
 
-// A setting as an integer, or `fallback` when the run has no such key (another algorithm).
-long setting_int(const Settings& s, const std::string& key, long fallback) {
-  const auto it = s.find(key);
-  if (it == s.end()) return fallback;
-  try {
-    return std::stol(it->second);
-  } catch (const std::exception&) {
-    return fallback;
-  }
-}
-
 }  // namespace
 
 std::string policy_cost_hint(int episode, double seconds, double previous_seconds,
@@ -194,8 +183,9 @@ RunOutcome run_experiment(const Registry& registry, const Settings& settings,
   long transitions = 0;
   double previous_policy_seconds = 0;
   bool hinted = false;
-  const long variance_points = setting_int(e.settings, "model.variance_points", 0);
-  const long max_evaluations = setting_int(e.settings, "optimizer.max_evaluations", 0);
+  // Base keys: every validated experiment has them.
+  const long variance_points = static_cast<long>(get_int(e.settings, "model.variance_points"));
+  const long max_evaluations = static_cast<long>(get_int(e.settings, "optimizer.max_evaluations"));
   cb.on_episode = [&](const algo::EpisodeRecord& r) {
     dir->record(r);
     clear();
