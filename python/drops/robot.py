@@ -414,7 +414,6 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
         "name": name,
         "description": f"a task written in Python ({tname})",
         "task_class": tname,
-        "system_class": type(system).__name__,
         "prior_class": pname if prior is not None else "Prior",
         "declaration": declaration,
         "prior_label": prior.label if prior is not None else "none",

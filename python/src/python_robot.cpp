@@ -121,7 +121,7 @@ auto with_python(CallbackErrors& errors, const std::string& callback, F&& f,
 }
 
 struct Spec {
-  std::string name, description, prior_label, task_class, system_class, prior_class;
+  std::string name, description, prior_label, task_class, prior_class;
   std::map<std::string, std::string> declaration;  // TaskSetup::declaration
   std::vector<std::string> state_names, action_names, state_units, action_units;
   int E = 0, A = 0, O = 0, horizon = 0, hidden_units = 10;
@@ -145,7 +145,6 @@ Spec read_spec(const py::dict& d) {
   s.name = d["name"].cast<std::string>();
   s.description = d["description"].cast<std::string>();
   s.task_class = d["task_class"].cast<std::string>();
-  s.system_class = d["system_class"].cast<std::string>();
   s.prior_class = d["prior_class"].cast<std::string>();
   s.declaration = d["declaration"].cast<std::map<std::string, std::string>>();
   s.prior_label = d["prior_label"].cast<std::string>();
