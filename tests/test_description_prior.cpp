@@ -9,6 +9,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -437,4 +438,125 @@ TEST(DescriptionPrior, BadFilesAndNamesGiveErrorsNamingTheFileAndTheItem) {
   EXPECT_NE(e.find("Link2.inertia = 0"), std::string::npos) << e;
   e = error_of([&] { prior.check_phi(Eigen::Vector2d(0.5, 1)); });
   EXPECT_NE(e.find("expected size 3, got 2"), std::string::npos) << e;
+}
+
+TEST(DescriptionPrior, BoundsOutsideAParametersPhysicalDomainAreRefusedNamingTheFileAndTheItem) {
+  const auto prior =
+      dfki_prior({"Link1.mass", "Link2.inertia", "Joint1.damping", "Link2.com.z", "Joint1.gear"});
+  EXPECT_EQ(prior.parameter_index("Link2.inertia"), 1);
+  EXPECT_EQ(prior.parameter_index("Link3.mass"), -1);
+  const auto mass = prior.parameter_domain(0);
+  EXPECT_EQ(mass.lower, 0.0);
+  EXPECT_FALSE(mass.lower_open);
+  EXPECT_EQ(mass.unit, "kg");
+  EXPECT_TRUE(prior.parameter_domain(1).lower_open);
+  EXPECT_EQ(prior.parameter_domain(2).unit, "N m s/rad");
+  EXPECT_EQ(prior.parameter_domain(3).lower, -std::numeric_limits<double>::infinity());
+  // Bounds inside the domains pass, the interval's edges included.
+  EXPECT_NO_THROW(prior.check_bounds(0, 0.0, 2.0));
+  EXPECT_NO_THROW(prior.check_bounds(1, 0.1, 3.0));
+  EXPECT_NO_THROW(prior.check_bounds(3, -0.5, 0.5));
+  EXPECT_NO_THROW(prior.check_bounds(4, -2.0, 2.0));
+  std::string e = error_of([&] { prior.check_bounds(0, -0.1, 0.9); });
+  EXPECT_NE(e.find(kDfki), std::string::npos) << e;
+  EXPECT_NE(e.find("Link1.mass: bounds [-0.1, 0.9]: non-physical: a mass: >= 0 kg"),
+            std::string::npos)
+      << e;
+  e = error_of([&] { prior.check_bounds(1, 0.0, 2.0); });
+  EXPECT_NE(e.find("Link2.inertia: bounds [0, 2]: non-physical: an inertia scale"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("> 0"), std::string::npos) << e;
+  e = error_of([&] { prior.check_bounds(2, 0.2, 0.1); });
+  EXPECT_NE(e.find("expected lower <= upper"), std::string::npos) << e;
+  e = error_of([&] { prior.check_bounds(3, 0.0, std::numeric_limits<double>::infinity()); });
+  EXPECT_NE(e.find("expected finite bounds"), std::string::npos) << e;
+  e = error_of([&] { prior.parameter_domain(5); });
+  EXPECT_NE(e.find("parameter index 5"), std::string::npos) << e;
+  // check_phi says the same domain.
+  e = error_of([&] { prior.check_phi((VectorXd(5) << 0.5, -1, 0, 0, 1).finished()); });
+  EXPECT_NE(e.find("Link2.inertia = -1: expected an inertia scale"), std::string::npos) << e;
+}
+
+TEST(DescriptionPrior, AFloatingJointOfAUrdfIsRefusedNamingTheFileAndTheJoint) {
+  const std::string urdf = R"(<robot name="floater">
+  <link name="world"/>
+  <link name="torso"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="float" type="floating"><parent link="world"/><child link="torso"/></joint>
+</robot>)";
+  DescriptionPriorOptions o;
+  o.file = write_temp("floater.urdf", urdf);
+  const std::string e = error_of([&] { DescriptionPrior p(o); });
+  EXPECT_NE(e.find("floater.urdf"), std::string::npos) << e;
+  EXPECT_NE(e.find("is free (a floating base); the prior needs a fixed base"), std::string::npos)
+      << e;
+}
+
+TEST(DescriptionPrior, MissingVisualMeshesAreAWarningNotAnError) {
+  // The DFKI file names four visual meshes (./meshes/*.obj) that tests/data does not hold.
+  const auto prior = dfki_prior({"Link2.mass"});
+  ASSERT_EQ(prior.warnings().size(), 1u);
+  const std::string& w = prior.warnings()[0];
+  EXPECT_NE(w.find(kDfki), std::string::npos) << w;
+  for (const char* mesh : {"./meshes/base_link.obj", "./meshes/Link1.obj", "./meshes/Link2.obj",
+                           "./meshes/Weight.obj"})
+    EXPECT_NE(w.find(mesh), std::string::npos) << w;
+  // A mesh that exists is not listed; a package:// name is not resolved, hence not listed.
+  const std::string dir = ::testing::TempDir();
+  std::ofstream(dir + "present.obj") << "v 0 0 0\n";
+  const std::string urdf = R"(<robot name="one">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><mesh filename="present.obj"/></geometry></visual>
+    <visual><geometry><mesh filename="package://robot/arm.dae"/></geometry></visual>
+    <visual><geometry><mesh filename="absent/arm.stl" scale="1 1 1"/></geometry></visual></link>
+  <joint name="hinge" type="continuous"><parent link="base"/><child link="arm"/><axis xyz="1 0 0"/></joint>
+</robot>)";
+  DescriptionPriorOptions o;
+  o.file = write_temp("one_mesh_missing.urdf", urdf);
+  o.parameters = {"arm.mass"};
+  const DescriptionPrior one(o);
+  ASSERT_EQ(one.warnings().size(), 1u);
+  EXPECT_NE(one.warnings()[0].find("the mesh files absent/arm.stl (of"), std::string::npos)
+      << one.warnings()[0];
+  // The prior works: the arm hanging still stays still.
+  MatrixXd dX;
+  one.evaluate_batch(MatrixXd::Zero(1, 2), MatrixXd::Zero(1, 1), one.default_phi(), dX);
+  EXPECT_LT(dX.cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(DescriptionPrior, AnEngineErrorIsThrownNamingTheFileAndTheProcessGoesOn) {
+  // An mjData stack of 24 numbers: enough to compile the model and to step it with its tendons'
+  // limits inactive (q = 0), too small for the constraint solver once the four limits are
+  // active (q = 1 > 0.1): MuJoCo's mju_error("Stack overflow"), which would exit the process
+  // without the prior's hook. (The prior turns joint limits off, not tendon limits.)
+  std::string tendons;
+  for (int k = 0; k < 4; ++k)
+    tendons += "<fixed name=\"t" + std::to_string(k) +
+               "\" limited=\"true\" range=\"-0.1 0.1\"><joint joint=\"hinge\" coef=\"1\"/></fixed>";
+  const std::string mjcf = R"(<mujoco model="tiny_stack"><size nstack="24"/>
+  <worldbody><body name="arm"><joint name="hinge" type="hinge" axis="1 0 0"/>
+    <inertial pos="0 0 -0.5" mass="1" diaginertia="0.1 0.1 0.1"/></body></worldbody>
+  <tendon>)" + tendons + "</tendon></mujoco>";
+  DescriptionPriorOptions o;
+  o.file = write_temp("tiny_stack.xml", mjcf);
+  const DescriptionPrior prior(o);
+  MatrixXd dX;
+  prior.evaluate_batch(MatrixXd::Zero(1, 2), MatrixXd::Zero(1, 1), VectorXd(), dX);
+  EXPECT_TRUE(dX.allFinite());
+  const MatrixXd limits_active = (MatrixXd(1, 2) << 1.0, 0.0).finished();
+  for (int k = 0; k < 2; ++k) {  // the second call on a fresh workspace fails the same way
+    std::string e = "(no NumericalError thrown)";
+    try {
+      prior.evaluate_batch(limits_active, MatrixXd::Zero(1, 1), VectorXd(), dX);
+    } catch (const NumericalError& err) {
+      e = err.what();
+    }
+    EXPECT_NE(e.find("tiny_stack.xml"), std::string::npos) << e;
+    EXPECT_NE(e.find("MuJoCo: Stack overflow"), std::string::npos) << e;
+  }
+  // The process and the prior go on.
+  MatrixXd again;
+  prior.evaluate_batch(MatrixXd::Zero(1, 2), MatrixXd::Zero(1, 1), VectorXd(), again);
+  EXPECT_TRUE(again.allFinite());
 }

@@ -7,6 +7,8 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <exception>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <regex>
@@ -99,6 +101,45 @@ std::string root_element(const std::string& text) {
   return "";
 }
 
+// The mesh files a URDF names (<mesh filename="...">, in <visual> or <collision>) that do not
+// exist, relative to the file's folder (file:// stripped; package:// names are not resolved).
+std::vector<std::string> missing_meshes(const std::string& text, const std::string& path) {
+  std::vector<std::string> missing;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  static const std::regex mesh("<mesh\\s[^>]*filename\\s*=\\s*\"([^\"]*)\"");
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), mesh); it != std::sregex_iterator();
+       ++it) {
+    std::string name = (*it)[1].str();
+    if (name.rfind("package://", 0) == 0) continue;
+    if (name.rfind("file://", 0) == 0) name = name.substr(7);
+    std::filesystem::path f(name);
+    if (f.is_relative()) f = folder / f;
+    std::error_code ec;
+    if (!std::filesystem::exists(f, ec) &&
+        std::find(missing.begin(), missing.end(), name) == missing.end())
+      missing.push_back(name);
+  }
+  return missing;
+}
+
+// An error MuJoCo reports through mju_user_error (the default handler exits the process).
+class EngineError : public Error {
+ public:
+  using Error::Error;
+};
+
+// Installed once per process, if the program has not installed its own: MuJoCo's fatal errors
+// (an mjData stack overflow, an allocation failure) become exceptions that the calls below turn
+// into a NumericalError naming the file. (MuJoCo's C code is compiled with unwind tables, and
+// its own Python bindings throw from this hook the same way.)
+void install_error_hook() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (mju_user_error == nullptr)
+      mju_user_error = [](const char* message) { throw EngineError(message ? message : ""); };
+  });
+}
+
 // A URDF as the prior loads it (DescriptionPriorOptions::file): no comments, collisions or
 // visuals; the undeclared `world` link declared; fixed links kept as bodies of their own.
 std::string prepare_urdf(const std::string& text) {
@@ -124,7 +165,7 @@ std::mutex& load_mutex() {
   return m;
 }
 
-mjModel* load_model(const std::string& path) {
+mjModel* load_model(const std::string& path, std::vector<std::string>& warnings) {
   const std::string text = strip_comments(read_text(path));
   const std::string root = root_element(text);
   if (root != "robot" && root != "mujoco")
@@ -136,6 +177,10 @@ mjModel* load_model(const std::string& path) {
   mjModel* m = nullptr;
   std::lock_guard<std::mutex> lock(load_mutex());
   if (root == "robot") {
+    if (const auto missing = missing_meshes(text, path); !missing.empty())
+      warnings.push_back("description prior '" + path + "': the mesh files " + join(missing) +
+                         " (of <visual> or <collision> elements) do not exist; ignored: the "
+                         "prior uses no geometry (the links' <inertial> give the masses)");
     const std::string urdf = prepare_urdf(text);
     auto vfs = std::make_unique<mjVFS>();
     mj_defaultVFS(vfs.get());
@@ -161,8 +206,9 @@ enum class Kind { kMass, kCom, kInertia, kDamping, kFriction, kArmature, kGear, 
 
 struct Param {
   Kind kind;
-  int index = 0;  // body id (mass, com, inertia) or dof address (joint kinds)
-  int axis = 0;   // com: 0, 1, 2
+  int index = 0;       // body id (mass, com, inertia) or dof address (joint kinds)
+  int axis = 0;        // com: 0, 1, 2
+  bool slide = false;  // joint kinds: a slide joint (N, m) rather than a hinge (N m, rad)
 };
 
 }  // namespace detail
@@ -201,6 +247,7 @@ struct PriorModel {
   std::vector<double> friction;  // per dof: the file's Coulomb friction (f_c)
   std::vector<Param> params;
   VectorXd defaults;
+  std::vector<std::string> warnings;
   std::array<double, 3> gravity_direction{0, 0, -1};
   ~PriorModel() {
     if (model) mj_deleteModel(model);
@@ -245,12 +292,16 @@ class WorkspacePool {
   struct Lease {
     WorkspacePool* pool;
     std::unique_ptr<Workspace> ws;
+    int exceptions = std::uncaught_exceptions();
     ~Lease() {
+      // A call that ends by an exception (MuJoCo's error hook threw out of mj_forward) may
+      // leave its mjData half-written: that workspace is dropped, not reused.
+      if (std::uncaught_exceptions() > exceptions) return;
       std::lock_guard<std::mutex> lock(pool->mutex_);
       pool->free_.push_back(std::move(ws));
     }
   };
-  /// A workspace for one call, back in the pool when the lease ends.
+  /// A workspace for one call, back in the pool when the lease ends without an exception.
   Lease lease() { return Lease{this, take()}; }
 
  private:
@@ -283,7 +334,8 @@ DescriptionPrior::DescriptionPrior(const DescriptionPriorOptions& options) {
     throw InvalidArgument("description prior '" + options.file + "': " + why);
   auto l = std::make_shared<PriorModel>();
   l->options = options;
-  l->model = load_model(options.file);
+  install_error_hook();
+  l->model = load_model(options.file, l->warnings);
   mjModel* m = l->model;
 
   std::vector<std::string> file_joints;
@@ -403,6 +455,7 @@ DescriptionPrior::DescriptionPrior(const DescriptionPriorOptions& options) {
           throw unknown("no joint named '" + item + "'; the file's joints: " + join(file_joints));
         const int d = m->jnt_dofadr[j];
         p.index = d;
+        p.slide = m->jnt_type[j] == mjJNT_SLIDE;
         if (kind == "damping") {
           p.kind = Kind::kDamping;
           value = m->dof_damping[d];
@@ -436,7 +489,11 @@ DescriptionPrior::DescriptionPrior(const DescriptionPrior& other)
     : model::MeanFunction(other),
       loaded_(other.loaded_),
       pool_(std::make_unique<WorkspacePool>(loaded_)) {
-  pool_->lease();  // one workspace ready: copies the model and makes its data
+  try {
+    pool_->lease();  // one workspace ready: copies the model and makes its data
+  } catch (const EngineError& e) {
+    throw NumericalError(loaded_->where() + ": MuJoCo: " + e.what());
+  }
 }
 
 int DescriptionPrior::state_dim() const { return 2 * static_cast<int>(loaded_->joints.size()); }
@@ -468,6 +525,74 @@ std::vector<std::string> DescriptionPrior::available_parameters() const {
   return names;
 }
 
+ParameterDomain DescriptionPrior::parameter_domain(int i) const {
+  const auto& l = *loaded_;
+  if (i < 0 || i >= static_cast<int>(l.params.size()))
+    throw InvalidArgument(l.where() + ": parameter index " + std::to_string(i) +
+                          ": expected 0 to " + std::to_string(l.params.size()) + " - 1");
+  const Param& p = l.params[static_cast<size_t>(i)];
+  const double inf = std::numeric_limits<double>::infinity();
+  switch (p.kind) {
+    case Kind::kMass:
+      return {0, false, inf, "kg", "a mass"};
+    case Kind::kCom:
+      return {-inf, false, inf, "m", "a centre-of-mass coordinate"};
+    case Kind::kInertia:
+      return {0, true, inf, "", "an inertia scale (1 = the file's)"};
+    case Kind::kDamping:
+      return {0, false, inf, p.slide ? "N s/m" : "N m s/rad", "a viscous damping"};
+    case Kind::kFriction:
+      return {0, false, inf, p.slide ? "N" : "N m", "a Coulomb friction"};
+    case Kind::kArmature:
+      return {0, false, inf, p.slide ? "kg" : "kg m^2", "an armature (rotor inertia)"};
+    case Kind::kGear:
+      return {-inf, false, inf, "", "a gear (torque per unit of action)"};
+    case Kind::kGravity:
+      return {0, false, inf, "m/s^2", "a gravity"};
+  }
+  return {};
+}
+
+int DescriptionPrior::parameter_index(const std::string& name) const {
+  const auto& names = loaded_->options.parameters;
+  const auto it = std::find(names.begin(), names.end(), name);
+  return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+}
+
+namespace {
+
+// "a mass: >= 0 kg" and whether v lies in the domain.
+std::string domain_text(const ParameterDomain& d) {
+  std::ostringstream o;
+  o << d.what << ": ";
+  if (std::isfinite(d.lower))
+    o << (d.lower_open ? "> " : ">= ") << d.lower << (d.unit.empty() ? "" : " " + d.unit);
+  else
+    o << "any finite value";
+  return o.str();
+}
+
+bool in_domain(const ParameterDomain& d, double v) {
+  return std::isfinite(v) && (d.lower_open ? v > d.lower : v >= d.lower) && v <= d.upper;
+}
+
+}  // namespace
+
+void DescriptionPrior::check_bounds(int i, double lower, double upper) const {
+  const auto& l = *loaded_;
+  const ParameterDomain d = parameter_domain(i);
+  const std::string& name = l.options.parameters[static_cast<size_t>(i)];
+  std::ostringstream o;
+  o << l.where() << ": " << name << ": bounds [" << lower << ", " << upper << "]: ";
+  if (!std::isfinite(lower) || !std::isfinite(upper))
+    throw InvalidArgument(o.str() + "expected finite bounds");
+  if (lower > upper) throw InvalidArgument(o.str() + "expected lower <= upper");
+  if (!in_domain(d, lower) || !in_domain(d, upper))
+    throw InvalidArgument(o.str() + "non-physical: " + domain_text(d));
+}
+
+const std::vector<std::string>& DescriptionPrior::warnings() const { return loaded_->warnings; }
+
 void DescriptionPrior::check_phi(const VectorXd& phi) const {
   const auto& l = *loaded_;
   if (phi.size() != static_cast<Eigen::Index>(l.params.size()))
@@ -475,26 +600,12 @@ void DescriptionPrior::check_phi(const VectorXd& phi) const {
                           ", got " + std::to_string(phi.size()));
   for (size_t i = 0; i < l.params.size(); ++i) {
     const double v = phi[static_cast<Eigen::Index>(i)];
-    const std::string& name = l.options.parameters[i];
-    auto bad = [&](const char* allowed) {
-      return InvalidArgument(l.where() + ": " + name + " = " + std::to_string(v) + ": expected " +
-                             allowed);
-    };
-    if (!std::isfinite(v)) throw bad("a finite value");
-    switch (l.params[i].kind) {
-      case Kind::kInertia:
-        if (!(v > 0)) throw bad("> 0 (a scale of the file's inertia)");
-        break;
-      case Kind::kMass:
-      case Kind::kDamping:
-      case Kind::kFriction:
-      case Kind::kArmature:
-      case Kind::kGravity:
-        if (v < 0) throw bad(">= 0");
-        break;
-      case Kind::kCom:
-      case Kind::kGear:
-        break;
+    const ParameterDomain d = parameter_domain(static_cast<int>(i));
+    if (!in_domain(d, v)) {
+      std::ostringstream o;
+      o << l.where() << ": " << l.options.parameters[i] << " = " << v << ": expected "
+        << (std::isfinite(v) ? domain_text(d) : "a finite value");
+      throw InvalidArgument(o.str());
     }
   }
 }
@@ -574,6 +685,17 @@ void DescriptionPrior::evaluate_batch(const MatrixXd& X, const MatrixXd& U, cons
              static_cast<long>(l.actuated_dof.size()), U.cols());
   check_size("description prior: U's rows (one per row of X)", X.rows(), U.rows());
   check_size("description prior: phi", static_cast<long>(l.params.size()), phi.size());
+  try {
+    evaluate_rows(X, U, phi, dX);
+  } catch (const EngineError& e) {
+    throw NumericalError(l.where() + ": MuJoCo: " + e.what());
+  }
+}
+
+void DescriptionPrior::evaluate_rows(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi,
+                                     MatrixXd& dX) const {
+  const auto& l = *loaded_;
+  const int n = static_cast<int>(l.dof.size());
   auto lease = pool_->lease();
   Workspace& w = *lease.ws;
   write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
@@ -621,14 +743,18 @@ VectorXd DescriptionPrior::joint_accelerations(const VectorXd& x, const VectorXd
   check_size("description prior: u (the driven joints)", static_cast<long>(l.actuated_dof.size()),
              u.size());
   check_size("description prior: phi", static_cast<long>(l.params.size()), phi.size());
-  auto lease = pool_->lease();
-  Workspace& w = *lease.ws;
-  write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
-  std::fill(w.tau.begin(), w.tau.end(), 0.0);
-  for (size_t a = 0; a < l.actuated_dof.size(); ++a)
-    w.tau[l.actuated_dof[a]] = w.gear[l.actuated_dof[a]] * u[static_cast<Eigen::Index>(a)];
   VectorXd acc(n);
-  forward(l.qpos, l.dof, l.options.coulomb_velocity, w, x.data(), x.data() + n, acc.data());
+  try {
+    auto lease = pool_->lease();
+    Workspace& w = *lease.ws;
+    write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
+    std::fill(w.tau.begin(), w.tau.end(), 0.0);
+    for (size_t a = 0; a < l.actuated_dof.size(); ++a)
+      w.tau[l.actuated_dof[a]] = w.gear[l.actuated_dof[a]] * u[static_cast<Eigen::Index>(a)];
+    forward(l.qpos, l.dof, l.options.coulomb_velocity, w, x.data(), x.data() + n, acc.data());
+  } catch (const EngineError& e) {
+    throw NumericalError(l.where() + ": MuJoCo: " + e.what());
+  }
   return acc;
 }
 

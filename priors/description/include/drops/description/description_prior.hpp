@@ -18,6 +18,7 @@
 /// dt = 0.01 s, 10 substeps of 1 ms (the engine study measured 35-61 us per such period on the
 /// double pendulum, and agreement with the analytic model to 2e-12 rad over 2 s).
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -74,6 +75,21 @@ struct DescriptionPriorOptions {
   bool IsValid(std::string* why) const;
 };
 
+/// The values a parameter of DescriptionPrior may take (its physical domain) and its unit:
+/// lower <= value <= upper, lower excluded when lower_open. A mass, damping, friction, armature
+/// or gravity: [0, inf); an inertia scale: (0, inf) (a positive scale keeps the file's inertia
+/// positive definite and its principal moments a triangle); a centre of mass or a gear: any
+/// finite value.
+struct ParameterDomain {
+  double lower = -std::numeric_limits<double>::infinity();
+  bool lower_open = false;
+  double upper = std::numeric_limits<double>::infinity();
+  /// E.g. "kg", "m", "N m s/rad" (a slide joint's: "N s/m"), "" for a scale.
+  std::string unit;
+  /// What the parameter is, for messages: "a mass", "an inertia scale", ...
+  std::string what;
+};
+
 /// A URDF or MJCF file as a model::MeanFunction: state x = [q, qd] (dim 2n: the `joints`'
 /// positions, rad or m, then their velocities, in the order of DescriptionPriorOptions::joints;
 /// note that tasks/pendubot orders its state velocities first, so a task maps its own order),
@@ -90,8 +106,14 @@ class DescriptionPrior : public model::MeanFunction {
  public:
   /// Loads options.file with MuJoCo. Throws InvalidArgument naming the file when the options are
   /// invalid, the file cannot be read or does not parse (with MuJoCo's message), it has a
-  /// floating base or a ball joint, a joint or body named in the options or the parameters is
-  /// not in it (the message lists the names it has), or a name is not a parameter.
+  /// floating base (a free joint: a URDF's `floating` joint or an MJCF's <freejoint>) or a
+  /// ball joint, a joint or body named in the options or the parameters is not in it (the
+  /// message lists the names it has), or a name is not a parameter. Missing mesh files of a
+  /// URDF's <visual> and <collision> are no error (the prior uses no geometry): warnings() lists
+  /// them. Also installs, once per process and only if none is installed, MuJoCo's fatal-error
+  /// hook (mju_user_error, which by default exits the process): an engine error in a later call
+  /// is then thrown as a NumericalError naming the file (the workspace of that call is
+  /// discarded).
   explicit DescriptionPrior(const DescriptionPriorOptions& options);
   ~DescriptionPrior() override;
   DescriptionPrior(const DescriptionPrior& other);
@@ -104,8 +126,8 @@ class DescriptionPrior : public model::MeanFunction {
   /// The options' parameters (dim P).
   std::vector<std::string> parameter_names() const override;
   /// Throws InvalidArgument naming the parameter and the file when phi (dim P) has the wrong size
-  /// or a value outside its domain (a negative mass, damping, friction, armature or gravity, an
-  /// inertia scale <= 0, anything not finite).
+  /// or a value outside its domain (parameter_domain: a negative mass, damping, friction,
+  /// armature or gravity, an inertia scale <= 0, anything not finite).
   void check_phi(const VectorXd& phi) const override;
   /// dx = M(x, u; phi): x dim 2n, u dim m, phi dim P (assumed checked), dx dim 2n. Thread-safe.
   void evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
@@ -118,6 +140,22 @@ class DescriptionPrior : public model::MeanFunction {
 
   /// The file's values of parameter_names() (dim P): the start of phi (gear 1).
   VectorXd default_phi() const;
+  /// The physical domain and unit of parameter i (0 <= i < P). Throws InvalidArgument for an i
+  /// out of range. Thread-safe.
+  ParameterDomain parameter_domain(int i) const;
+  /// The index of the parameter `name` in parameter_names(), or -1 when it is not one.
+  int parameter_index(const std::string& name) const;
+  /// Checks search bounds [lower, upper] of parameter i (0 <= i < P) before anything runs:
+  /// throws InvalidArgument naming the file, the parameter and its physical domain when a bound
+  /// is not finite, lower > upper, or the interval leaves the domain (a lower bound below 0 kg
+  /// for a mass, <= 0 for an inertia scale, ...: GP-MI would try non-physical phi). For the
+  /// configuration's and Python's prior.parameters entries. Thread-safe.
+  void check_bounds(int i, double lower, double upper) const;
+  /// What loading found that does not stop the prior (each a sentence naming the file): today
+  /// the mesh files a URDF's <visual> or <collision> elements name that do not exist (relative
+  /// to the file; `package://` names are not resolved and not listed). The library prints
+  /// nothing: the caller shows them (the Python class as a warnings.warn).
+  const std::vector<std::string>& warnings() const;
   /// Joint accelerations qdd (dim n, rad/s^2 or m/s^2) at x (dim 2n) under u (dim m) and phi
   /// (dim P, assumed checked): one mj_forward, the friction and gear applied. Thread-safe.
   VectorXd joint_accelerations(const VectorXd& x, const VectorXd& u, const VectorXd& phi) const;
@@ -131,6 +169,8 @@ class DescriptionPrior : public model::MeanFunction {
   const DescriptionPriorOptions& options() const;
 
  private:
+  // evaluate_batch after its size checks; MuJoCo's errors come out as they are thrown.
+  void evaluate_rows(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi, MatrixXd& dX) const;
   std::shared_ptr<const detail::PriorModel> loaded_;
   std::unique_ptr<detail::WorkspacePool> pool_;
 };
