@@ -25,6 +25,7 @@ from . import _drops
 from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDirectoryBusy,
                      RunDirectoryDamaged, RunOutcome)
 from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec, _unicode
+from .description import DescriptionPrior
 
 __version__ = _drops.__version__  # drops's version (CHANGELOG.md), the C++ library's
 
@@ -32,7 +33,7 @@ __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
     "read_trajectory", "read_policy", "read_log", "RecordedLog", "LogSegment", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
     "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged", "Task",
-    "System", "Prior", "Parameter", "Reflection",
+    "System", "Prior", "Parameter", "Reflection", "DescriptionPrior",
 ]
 
 

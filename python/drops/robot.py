@@ -31,13 +31,14 @@ class Parameter:
 
     name: its name (reports, summary.json's phi columns).
     value: the prior's value: the start of GP-MI's and MI's search when tunable, else fixed.
+      None (the default) only for a drops.DescriptionPrior, which takes the file's value.
     lower, upper: the interval GP-MI and MI search when tunable (lower <= value <= upper).
     tunable: whether GP-MI and MI may change it.
     actual: the real system's value in the prior's parametrisation (reports; NaN: unknown).
     unit: its unit, for figures (e.g. "kg"; "" for none).
     """
     name: str
-    value: float
+    value: float = None
     lower: float = -_math.inf
     upper: float = _math.inf
     tunable: bool = True
@@ -392,6 +393,9 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
             raise TypeError(f"{pname}.parameters[{i}]: expected drops.Parameter, got {_shown(p)}")
         _names([p.name], f"{pname}.parameters", seen_params, trajectory=False)
         what = f"{pname}.parameters: {p.name}"
+        if p.value is None:
+            raise TypeError(f"{what}.value: None (only a drops.DescriptionPrior takes a value "
+                            "from its file); give a number")
         values.append(_real(p.value, f"{what}.value"))
         lower.append(-_math.inf if p.lower == -_math.inf else _real(p.lower, f"{what}.lower"))
         upper.append(_math.inf if p.upper == _math.inf else _real(p.upper, f"{what}.upper"))
@@ -402,6 +406,10 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
         a = float(p.actual) if not isinstance(p.actual, bool) else _math.nan
         actual.append(a if _math.isfinite(a) else _math.nan)
         _text(p.unit, f"{what}.unit", 64)
+    # A prior with a C++ side (drops.DescriptionPrior): the run calls it directly; its
+    # dimensions are checked against the task's here, before anything runs.
+    native_for_run = getattr(prior, "_native_for_run", None)
+    native = native_for_run(E, A, dt, tname) if callable(native_for_run) else None
     # What the library cannot read from the task, the policy and the prior (TaskSetup::
     # declaration): recorded in the run and compared on resume.
     declaration = {
@@ -429,4 +437,5 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
         "phi_tunable": [bool(p.tunable) for p in params],
         "phi_actual": [] if any(_math.isnan(a) for a in actual) else actual,
         "has_check_phi": prior is not None and type(prior).check_phi is not Prior.check_phi,
+        "native_prior": native,
     }

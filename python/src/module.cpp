@@ -407,6 +407,8 @@ PYBIND11_MODULE(_drops, m) {
     }
   });
 
+  drops::python::bind_description(m);  // drops.DescriptionPrior's C++ side (with MuJoCo)
+
   py::class_<PyRunOutcome>(m, "RunOutcome",
                            "What drops.run or drops.resume did (the run's files are in directory).")
       .def_readonly("directory", &PyRunOutcome::directory, "The run directory (str).")

@@ -132,6 +132,8 @@ struct Spec {
   std::vector<bool> phi_tunable;
   std::vector<double> phi_actual;
   bool has_check_phi = false;
+  // A drops.DescriptionPrior's C++ prior (built for the task's dt), used by the run directly.
+  std::shared_ptr<const model::MeanFunction> native_prior;
   std::optional<Reflection> reflection;  // Task.reflection, checked by drops.robot
 };
 
@@ -169,6 +171,7 @@ Spec read_spec(const py::dict& d) {
   s.phi_tunable = d["phi_tunable"].cast<std::vector<bool>>();
   s.phi_actual = d["phi_actual"].cast<std::vector<double>>();
   s.has_check_phi = d["has_check_phi"].cast<bool>();
+  if (d.contains("native_prior")) s.native_prior = native_prior(d["native_prior"]);
   if (const py::handle r = d["reflection"]; !r.is_none()) {
     const auto rd = py::reinterpret_borrow<py::dict>(r);
     s.reflection = Reflection{vector_from(rd["state_sign"]), vector_from(rd["state_offset"]),
@@ -209,8 +212,8 @@ class PyTask final : public Task {
     obs = with_python(*c_.errors, cb, [&] {
       const py::object r = c_.observe(to_array(X));
       return matrix_of(checked(r, cb, {X.rows(), s_.O},
-                               "B = " + std::to_string(X.rows()) + " states x O = " +
-                                   std::to_string(s_.O) + " observations"));
+                               "B = " + std::to_string(X.rows()) +
+                                   " states x O = " + std::to_string(s_.O) + " observations"));
     });
     require_finite(obs, X, cb);
   }
@@ -218,15 +221,15 @@ class PyTask final : public Task {
     const std::string cb = s_.task_class + ".reward";
     r = with_python(*c_.errors, cb, [&] {
       const py::object v = c_.reward(to_array(X));
-      return vector_of(checked(v, cb, {X.rows()},
-                               "one reward per state: B = " + std::to_string(X.rows())));
+      return vector_of(
+          checked(v, cb, {X.rows()}, "one reward per state: B = " + std::to_string(X.rows())));
     });
     require_finite(r, X, cb);
     for (Eigen::Index b = 0; b < r.size(); ++b)
       if (std::abs(r[b]) > kMaxRewardMagnitude) {
         std::ostringstream o;
-        o << cb << " returned " << r[b] << " in row " << b << " (for the state x = ["
-          << X.row(b) << "]); a reward's magnitude must be at most 1e100, so that returns "
+        o << cb << " returned " << r[b] << " in row " << b << " (for the state x = [" << X.row(b)
+          << "]); a reward's magnitude must be at most 1e100, so that returns "
           << "(sums of rewards) stay finite";
         throw InvalidArgument(o.str());
       }
@@ -234,8 +237,7 @@ class PyTask final : public Task {
   std::optional<Reflection> reflection() const override { return s_.reflection; }
   bool solved(const Trajectory& tr) const override {
     return with_python(*c_.errors, s_.task_class + ".solved", [&] {
-      return py::bool_(c_.solved(to_array(tr.states), to_array(tr.actions),
-                                 to_array(tr.rewards)))
+      return py::bool_(c_.solved(to_array(tr.states), to_array(tr.actions), to_array(tr.rewards)))
           .cast<bool>();
     });
   }
@@ -251,7 +253,9 @@ class PySession final : public EpisodeSession {
  public:
   // Called with the interpreter lock held.
   PySession(py::object session, int E, const Callbacks& c)
-      : session_(std::move(session)), E_(E), c_(c),
+      : session_(std::move(session)),
+        E_(E),
+        c_(c),
         repeatable_(py::isinstance(session_, c.step_session_type)) {}
   ~PySession() override {
     py::gil_scoped_acquire gil;
@@ -335,8 +339,8 @@ class PyPrior final : public model::MeanFunction {
     dX = with_python(*c_.errors, cb, [&] {
       const py::object r = c_.evaluate(to_array(X), to_array(U), to_array(phi));
       return matrix_of(checked(r, cb, {X.rows(), s_.E},
-                               "B = " + std::to_string(X.rows()) + " states x E = " +
-                                   std::to_string(s_.E) + " state differences"));
+                               "B = " + std::to_string(X.rows()) +
+                                   " states x E = " + std::to_string(s_.E) + " state differences"));
     });
   }
   std::unique_ptr<model::MeanFunction> clone() const override {
@@ -352,7 +356,9 @@ class PyTaskPlugin final : public ex::TaskPlugin {
  public:
   PyTaskPlugin(const py::dict& spec, py::object task, py::object system, py::object prior,
                std::shared_ptr<CallbackErrors> errors)
-      : s_(read_spec(spec)), task_(std::move(task)), system_(std::move(system)),
+      : s_(read_spec(spec)),
+        task_(std::move(task)),
+        system_(std::move(system)),
         prior_(std::move(prior)) {
     // The bound methods, owned here (the Task, System and prior borrow them).
     for (const char* m : {"observe", "reward", "solved"}) owned_.push_back(task_.attr(m));
@@ -399,7 +405,12 @@ class PyTaskPlugin final : public ex::TaskPlugin {
     po.max_action = s_.max_action;
     s.policy = std::make_unique<policy::NeuralNetPolicy>(po);
     if (!prior_.is_none()) {
-      s.prior = std::make_shared<PyPrior>(s_, c_);
+      // A drops.DescriptionPrior: its C++ prior, called on every thread without the interpreter
+      // lock; any other drops.Prior: its Python evaluate, once per batch.
+      if (s_.native_prior)
+        s.prior = std::shared_ptr<model::MeanFunction>(s_.native_prior->clone());
+      else
+        s.prior = std::make_shared<PyPrior>(s_, c_);
       auto& p = s.prior_parameters;
       p.names = s_.phi_names;
       p.values = s_.phi_values;
@@ -500,8 +511,8 @@ std::optional<py::error_already_set> CallbackErrors::take() {
 std::unique_ptr<ex::TaskPlugin> make_python_task_plugin(const py::dict& spec, py::object task,
                                                         py::object system, py::object prior,
                                                         std::shared_ptr<CallbackErrors> errors) {
-  return std::make_unique<PyTaskPlugin>(spec, std::move(task), std::move(system),
-                                        std::move(prior), std::move(errors));
+  return std::make_unique<PyTaskPlugin>(spec, std::move(task), std::move(system), std::move(prior),
+                                        std::move(errors));
 }
 
 }  // namespace drops::python

@@ -15,6 +15,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/experiment/registry.hpp"
+#include "drops/model/mean_function.hpp"
 
 namespace drops::python {
 
@@ -68,5 +69,14 @@ class CallbackErrors {
 std::unique_ptr<experiment::TaskPlugin> make_python_task_plugin(
     const py::dict& spec, py::object task, py::object system, py::object prior,
     std::shared_ptr<CallbackErrors> errors);
+
+/// Adds drops._drops._DescriptionPrior (python/src/description.cpp; nothing when drops is built
+/// without MuJoCo). Called once from the module's initialisation.
+void bind_description(py::module_& m);
+
+/// A copy of the C++ prior held by the Python object `obj` (a _DescriptionPrior), or nullptr for
+/// None: the prior a run of a Python task uses directly, without a Python callback. Throws
+/// pybind11's cast_error for another type. Called with the interpreter lock held.
+std::shared_ptr<const model::MeanFunction> native_prior(py::handle obj);
 
 }  // namespace drops::python
