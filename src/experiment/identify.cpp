@@ -8,8 +8,11 @@
 #include <limits>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "drops/model/dataset.hpp"
 
 namespace drops::experiment {
@@ -366,6 +369,308 @@ std::string IdentifySummary::BriefReport() const {
     }
   }
   return o.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+KeySpec key(std::string name, std::string type, std::string def, std::string unit,
+            std::string doc, double min = 0, double max = 0,
+            std::vector<std::string> allowed = {}) {
+  KeySpec k;
+  k.key = std::move(name);
+  k.type = std::move(type);
+  k.default_value = std::move(def);
+  k.unit = std::move(unit);
+  k.doc = std::move(doc);
+  k.min = min;
+  k.max = max;
+  k.allowed = std::move(allowed);
+  return k;
+}
+
+std::string num(double v) {
+  if (!std::isfinite(v)) return "";
+  return fmt::format("{}", v);
+}
+
+nlohmann::json jnum(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+}  // namespace
+
+const std::vector<KeySpec>& identify_keys() {
+  static const std::vector<KeySpec> k = [] {
+    const IdentifyOptions d;
+    const LogOptions l;
+    std::vector<KeySpec> v;
+    v.push_back(key("identify.logs", "list", "[]", "-",
+                    "drops identify: the logs (CSV files) the model learns from, relative to the "
+                    "working directory"));
+    v.push_back(key("identify.validation", "list", "[]", "-",
+                    "drops identify: the logs the learned model is measured on (open-loop and "
+                    "one-step errors); none: no errors"));
+    v.push_back(key("identify.columns.time", "string", "time", "-",
+                    "drops identify: the logs' time column (units: identify.time_scale s)"));
+    v.push_back(key("identify.columns.state", "list", "[]", "-",
+                    "drops identify: the column of each state, in the task's state order; "
+                    "d/dt(COLUMN) is the smoothed derivative of COLUMN (docs/logs.md); [] = the "
+                    "task's state names"));
+    v.push_back(key("identify.columns.angles", "list", "[]", "-",
+                    "drops identify: the state columns that hold angles in rad (unwrapped, "
+                    "checked for degrees)"));
+    v.push_back(key("identify.columns.action", "list", "[]", "-",
+                    "drops identify: the column of each action, in the task's order; [] = the "
+                    "task's action names"));
+    v.push_back(key("identify.time_scale", "double", num(l.time_scale), "s",
+                    "drops identify: seconds per unit of the time column (1e-3 for ms)", 1e-12,
+                    1e6));
+    v.push_back(key("identify.bad_rows", "enum", "error", "-",
+                    "drops identify: rows with a value that is not finite or a repeated time: "
+                    "an error naming the file, line and column, or dropped and counted",
+                    0, 0, {"error", "drop"}));
+    v.push_back(key("identify.lowpass_hz", "double", num(l.lowpass_hz), "Hz",
+                    "drops identify: zero-phase Butterworth low-pass of the states; 0 = off", 0,
+                    1e6));
+    v.push_back(key("identify.derivative_window", "double", num(l.derivative_window), "s",
+                    "drops identify: window of the Savitzky-Golay derivative of d/dt states", 0,
+                    1e3));
+    v.push_back(key("identify.horizons", "numbers", "[0.1, 0.5, 1]", "s",
+                    "drops identify: open-loop horizons of the validation errors, ascending",
+                    1e-9, 1e6));
+    v.push_back(key("identify.start_spacing", "double", num(d.start_spacing), "s",
+                    "drops identify: time between open-loop start points", 1e-9, 1e6));
+    v.push_back(key("identify.max_points", "int", "0", "-",
+                    "drops identify: most transitions the model learns from (an evenly spaced "
+                    "subset, for the phi search and the final kernel fit alike); 0 = all",
+                    0, 1e9));
+    return v;
+  }();
+  return k;
+}
+
+IdentifyOptions identify_options(const Settings& st, double dt,
+                                 const std::vector<std::string>& state_names,
+                                 const std::vector<std::string>& action_names) {
+  IdentifyOptions o;
+  for (const auto& f : get_names(st, "identify.logs")) o.logs.emplace_back(f);
+  for (const auto& f : get_names(st, "identify.validation")) o.validation.emplace_back(f);
+  if (o.logs.empty())
+    throw ConfigError("config key 'identify.logs' is empty: name the logs to learn from");
+  o.log.dt = dt;
+  o.log.time_scale = get_double(st, "identify.time_scale");
+  o.log.bad_rows = st.at("identify.bad_rows") == "drop" ? BadRows::kDrop : BadRows::kError;
+  o.log.lowpass_hz = get_double(st, "identify.lowpass_hz");
+  o.log.derivative_window = get_double(st, "identify.derivative_window");
+  o.horizons = get_numbers(st, "identify.horizons");
+  o.start_spacing = get_double(st, "identify.start_spacing");
+  o.max_points = static_cast<int>(get_int(st, "identify.max_points"));
+  o.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
+  o.threads = static_cast<int>(get_int(st, "threads"));
+  o.columns.time = st.at("identify.columns.time");
+  std::vector<std::string> state = get_names(st, "identify.columns.state");
+  if (state.empty()) state = state_names;
+  if (state.size() != state_names.size())
+    throw ConfigError(fmt::format(
+        "config key 'identify.columns.state' lists {} columns; the task has {} states ({})",
+        state.size(), state_names.size(), fmt::join(state_names, ", ")));
+  const std::vector<std::string> angles = get_names(st, "identify.columns.angles");
+  for (std::size_t i = 0; i < state.size(); ++i) {
+    LogState ls;
+    const std::string& c = state[i];
+    if (c.rfind("d/dt(", 0) == 0 && c.size() > 6 && c.back() == ')') {
+      ls.quantity = LogQuantity::kVelocity;
+      ls.of = c.substr(5, c.size() - 6);
+      ls.name = state_names[i];
+    } else {
+      ls.column = c;
+      ls.quantity = std::find(angles.begin(), angles.end(), c) != angles.end()
+                        ? LogQuantity::kAngle
+                        : LogQuantity::kOther;
+    }
+    o.columns.state.push_back(ls);
+  }
+  for (const auto& a : angles)
+    if (std::find(state.begin(), state.end(), a) == state.end())
+      throw ConfigError("config key 'identify.columns.angles' names '" + a +
+                        "', which is no column of identify.columns.state");
+  o.columns.action = get_names(st, "identify.columns.action");
+  if (o.columns.action.empty()) o.columns.action = action_names;
+  if (o.columns.action.size() != action_names.size())
+    throw ConfigError(fmt::format(
+        "config key 'identify.columns.action' lists {} columns; the task has {} actions ({})",
+        o.columns.action.size(), action_names.size(), fmt::join(action_names, ", ")));
+  std::string why;
+  if (!o.IsValid(&why)) throw ConfigError("config: " + why);
+  return o;
+}
+
+std::vector<std::filesystem::path> write_identify_directory(const std::filesystem::path& dir,
+                                                            const IdentifyResult& r,
+                                                            const IdentifyOptions& options,
+                                                            const std::string& config_yaml) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(file_error("output directory " + dir.string(), ec.message()));
+  std::vector<fs::path> written;
+  auto put = [&](const std::string& name, const std::string& text) {
+    write_file_atomically(dir / name, text);
+    written.push_back(dir / name);
+  };
+  const IdentifySummary& s = r.summary;
+  put("config.yaml", config_yaml);
+  // phi.csv
+  {
+    std::string t = "name,start,value,tunable,lower95,upper95\n";
+    for (Eigen::Index i = 0; i < s.phi.size(); ++i)
+      t += fmt::format("{},{},{},{},{},{}\n", s.phi_names[static_cast<std::size_t>(i)],
+                       num(s.phi_start[i]), num(s.phi[i]),
+                       s.phi_tunable[static_cast<std::size_t>(i)] ? 1 : 0, num(s.phi_lower95[i]),
+                       num(s.phi_upper95[i]));
+    put("phi.csv", t);
+  }
+  // errors.csv
+  {
+    std::string t = "model,file,horizon,steps,dim,state,median,p90,n\n";
+    auto rows = [&](const char* m, const std::vector<PredictionErrors>& v) {
+      for (const auto& e : v)
+        t += fmt::format("{},{},{},{},{},{},{},{},{}\n", m, e.file, num(e.horizon), e.steps,
+                         e.dim, e.state, e.median, e.p90, e.n);
+    };
+    rows("learned", s.errors);
+    rows("prior", s.prior_errors);
+    put("errors.csv", t);
+  }
+  // model.json + data.csv
+  {
+    const model::ModelState st = r.model->state();
+    nlohmann::json j;
+    j["format"] = "drops-identified-model-1";
+    j["type"] = s.model_type;
+    j["state_names"] = s.state_names;
+    j["action_names"] = s.action_names;
+    j["dt"] = s.dt;
+    j["phi_names"] = s.phi_names;
+    j["phi"] = std::vector<double>(st.phi.data(), st.phi.data() + st.phi.size());
+    nlohmann::json h = nlohmann::json::array();
+    for (const auto& v : st.h_params) h.push_back(std::vector<double>(v.data(), v.data() + v.size()));
+    j["h_params"] = h;
+    j["data"] = "data.csv";
+    j["points"] = s.points;
+    put("model.json", j.dump(2) + "\n");
+    std::string t;
+    for (const auto& n : s.state_names) t += n + ",";
+    for (const auto& n : s.action_names) t += n + ",";
+    for (std::size_t i = 0; i < s.state_names.size(); ++i)
+      t += "d_" + s.state_names[i] + (i + 1 < s.state_names.size() ? "," : "\n");
+    for (const auto& tr : r.data) {
+      std::string line;
+      auto add = [&](const VectorXd& v) {
+        for (Eigen::Index i = 0; i < v.size(); ++i)
+          line += (line.empty() ? "" : ",") + fmt::format("{:.17g}", v[i]);
+      };
+      add(tr.x);
+      add(tr.u);
+      add(tr.dx);
+      t += line + "\n";
+    }
+    put("data.csv", t);
+  }
+  // validation-NN.csv: recorded states and the open-loop prediction (longest horizon) from
+  // every start point of the first segment.
+  const int n_long = steps_of(options.horizons.back(), s.dt);
+  const int spacing = steps_of(options.start_spacing, s.dt);
+  for (std::size_t f = 0; f < r.validation.size(); ++f) {
+    const RecordedLog& l = r.validation[f];
+    if (l.segments.empty()) continue;
+    const LogSegment& seg = l.segments.front();
+    std::string t = "t";
+    for (const auto& n : s.state_names) t += "," + n;
+    t += ",start";
+    for (const auto& n : s.state_names) t += ",pred_" + n;
+    t += "\n";
+    for (Eigen::Index k = 0; k < seg.x.rows(); ++k) {
+      t += num(seg.t0 + static_cast<double>(k) * s.dt);
+      for (Eigen::Index i = 0; i < seg.x.cols(); ++i) t += "," + fmt::format("{:.9g}", seg.x(k, i));
+      t += ",,";
+      for (Eigen::Index i = 1; i < seg.x.cols(); ++i) t += ",";
+      t += "\n";
+    }
+    for (int k0 = 0; k0 < seg.transitions(); k0 += spacing) {
+      const int n = std::min(n_long, seg.transitions() - k0);
+      const MatrixXd x =
+          open_loop_rollout(*r.model, seg.x.row(k0).transpose(), seg.u.middleRows(k0, n));
+      for (Eigen::Index k = 0; k < x.rows(); ++k) {
+        t += num(seg.t0 + static_cast<double>(k0 + k) * s.dt);
+        for (Eigen::Index i = 0; i < x.cols(); ++i) t += ",";
+        t += "," + std::to_string(k0);
+        for (Eigen::Index i = 0; i < x.cols(); ++i) t += "," + fmt::format("{:.9g}", x(k, i));
+        t += "\n";
+      }
+    }
+    put(fmt::format("validation-{:02d}.csv", f + 1), t);
+  }
+  // summary.json
+  {
+    nlohmann::json j;
+    j["model_type"] = s.model_type;
+    j["dt"] = s.dt;
+    j["transitions"] = s.transitions;
+    j["points"] = s.points;
+    j["learn_seconds"] = s.learn_seconds;
+    j["validation_seconds"] = s.validation_seconds;
+    j["seed"] = options.seed;
+    nlohmann::json logs = nlohmann::json::array();
+    for (const auto& rep : s.fit_reports)
+      logs.push_back({{"file", rep.source}, {"role", "fit"}, {"report", rep.BriefReport()}});
+    for (const auto& rep : s.validation_reports)
+      logs.push_back({{"file", rep.source}, {"role", "validation"}, {"report", rep.BriefReport()}});
+    j["logs"] = logs;
+    j["model"] = s.model.BriefReport();
+    put("summary.json", j.dump(2) + "\n");
+  }
+  // report.md
+  {
+    std::ostringstream o;
+    o << "# drops identify: " << s.model_type << "\n\n";
+    o << fmt::format("{} of {} transitions at dt = {} s from {} fit log(s); learning {:.1f} s.\n\n",
+                     s.points, s.transitions, s.dt, s.fit_reports.size(), s.learn_seconds);
+    o << "## Logs\n\n";
+    for (const auto& rep : s.fit_reports) o << "- fit: " << rep.BriefReport() << "\n";
+    for (const auto& rep : s.validation_reports) o << "- validation: " << rep.BriefReport() << "\n";
+    if (s.phi.size() > 0) {
+      o << "\n## phi\n\n| name | start | learned | 95% interval |\n|---|---|---|---|\n";
+      for (Eigen::Index i = 0; i < s.phi.size(); ++i) {
+        if (!s.phi_tunable[static_cast<std::size_t>(i)]) continue;
+        o << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n", s.phi_names[static_cast<std::size_t>(i)],
+                         s.phi_start[i], s.phi[i],
+                         std::isfinite(s.phi_lower95[i])
+                             ? fmt::format("[{:.6g}, {:.6g}]", s.phi_lower95[i], s.phi_upper95[i])
+                             : std::string("- (at a bound, or no posterior)"));
+      }
+    }
+    if (!s.errors.empty()) {
+      o << "\n## Prediction errors (median / p90 of |predicted - recorded| over the start "
+           "points; the first horizon, dt, is the one-step error from every state)\n\n";
+      o << "| file | horizon (s) | state | learned | prior at its start | n |\n";
+      o << "|---|---|---|---|---|---|\n";
+      for (std::size_t k = 0; k < s.errors.size(); ++k) {
+        const auto& e = s.errors[k];
+        o << fmt::format("| {} | {} | {} | {:.4g} / {:.4g} | {} | {} |\n",
+                         fs::path(e.file).filename().string(), e.horizon, e.state, e.median,
+                         e.p90,
+                         k < s.prior_errors.size()
+                             ? fmt::format("{:.4g} / {:.4g}", s.prior_errors[k].median,
+                                           s.prior_errors[k].p90)
+                             : std::string("-"),
+                         e.n);
+      }
+    }
+    o << "\n## Model\n\n" << s.model.BriefReport() << "\n";
+    put("report.md", o.str());
+  }
+  return written;
 }
 
 }  // namespace drops::experiment

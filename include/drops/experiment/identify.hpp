@@ -40,6 +40,7 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/problem.hpp"
 #include "drops/core/types.hpp"
+#include "drops/experiment/config.hpp"
 #include "drops/experiment/recorded_log.hpp"
 #include "drops/model/dynamics_model.hpp"
 
@@ -175,5 +176,35 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
 IdentifyResult identify(const IdentifyModel& what, const IdentifyOptions& options,
                         const IdentifyMessage& message = nullptr,
                         const model::ModelProgress& progress = nullptr);
+
+// ---------------------------------------------------------------------------------------------
+// `drops identify`: its configuration keys and its output directory.
+
+/// The keys identify.* (schema(): every task's schema has them; docs/configuration.md).
+/// Thread-safe.
+const std::vector<KeySpec>& identify_keys();
+
+/// IdentifyOptions of validated settings: identify.* with dt = the task's control period, the
+/// columns defaulting to the task's state and action names (a state entry "d/dt(COLUMN)" is the
+/// smoothed derivative of COLUMN, named by the task's state name at its place), seed and threads.
+/// state_names, action_names: the task's (dim E, U). Throws ConfigError naming the key when the
+/// columns do not fit the task or the options are invalid.
+IdentifyOptions identify_options(const Settings& settings, double dt,
+                                 const std::vector<std::string>& state_names,
+                                 const std::vector<std::string>& action_names);
+
+/// Writes `<dir>` (created; files through write_file_atomically, so nothing is half-written):
+/// config.yaml (config_yaml as given), summary.json (what IdentifySummary holds), phi.csv (name,
+/// start, value, tunable, lower95, upper95), errors.csv (model, file, horizon, steps, dim, state,
+/// median, p90, n; model "learned" and "prior"), model.json (the type, state and action names,
+/// dt, phi and per output GP the log hyper-parameters: the model's ModelState) with data.csv (the
+/// transitions it learned from: x, u, dx columns), validation-NN.csv (per validation file, the
+/// recorded states and the open-loop predictions over the longest horizon from every start
+/// point, for the figures) and report.md. Returns the files written. Throws drops::Error naming
+/// the file that cannot be written.
+std::vector<std::filesystem::path> write_identify_directory(const std::filesystem::path& dir,
+                                                            const IdentifyResult& result,
+                                                            const IdentifyOptions& options,
+                                                            const std::string& config_yaml);
 
 }  // namespace drops::experiment
