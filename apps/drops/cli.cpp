@@ -23,6 +23,7 @@ int run(int argc, char** argv, const experiment::Registry& registry, const std::
   app::add_report_command(app, action, registry);
   app::add_plot_command(app, action, registry);
   app::add_direct_command(app, action, registry);
+  app::add_identify_command(app, action, registry);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

@@ -29,4 +29,7 @@ void add_plot_command(CLI::App& app, Action& action, const experiment::Registry&
 /// `drops direct [CONFIG] [key=value ...]`: `drops run algorithm=direct` under its old name.
 void add_direct_command(CLI::App& app, Action& action, const experiment::Registry& registry);
 
+/// `drops identify CONFIG [key=value ...]`: a model learned from recorded logs.
+void add_identify_command(CLI::App& app, Action& action, const experiment::Registry& registry);
+
 }  // namespace drops::app

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/identify.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
@@ -144,6 +145,17 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     }
     return text;
   }
+  if (s.type == "list") {
+    if (!n.IsSequence()) fail(s.key, text, "expected a list such as [a, b]");
+    for (const auto& e : n)
+      if (!e.IsScalar()) fail(s.key, text, "expected a list of plain values such as [a, b]");
+    return text;
+  }
+  if (s.type == "numbers") {
+    if (!n.IsSequence() || n.size() == 0) fail(s.key, text, "expected a list such as [0.1, 0.5]");
+    for (const auto& e : n) check_range(s, parse_double(s.key, e), text);
+    return text;
+  }
   fail(s.key, text, "internal: unknown type " + s.type);
 }
 
@@ -201,6 +213,8 @@ bool known_anywhere(const Registry& registry, const std::string& key) {
   for (const auto& a : registry.algorithm_names())
     for (const auto& s : registry.algorithm(a).keys())
       if (s.key == key) return true;
+  for (const auto& s : identify_keys())
+    if (s.key == key) return true;
   return registry.task_of_key(key) != nullptr;
 }
 
@@ -231,6 +245,7 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
   std::vector<KeySpec> s = registered_base_keys(registry);
   for (const auto& a : registry.algorithm_names())
     for (auto& k : registry.algorithm(a).keys()) s.push_back(std::move(k));
+  for (auto& k : identify_keys()) s.push_back(std::move(k));
   const TaskPlugin& t = registry.task(task);
   for (auto& k : t.keys()) s.push_back(std::move(k));
   // The task's defaults of shared keys, validated by their declarations.
@@ -353,7 +368,8 @@ void emit(YAML::Emitter& e, const Tree& t) {
 
 YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
   const std::string type = spec ? spec->type : "string";
-  if (type == "interval" || type == "names") return YAML::Load(v);
+  if (type == "interval" || type == "names" || type == "list" || type == "numbers")
+    return YAML::Load(v);
   if (type == "string" || type == "enum") return YAML::Node(v);
   if (v.empty()) return YAML::Node(YAML::NodeType::Null);
   return YAML::Load(v);
@@ -420,6 +436,9 @@ std::string schema_markdown(const Registry& registry) {
     o << "\n";
     markdown_table(o, keys);
   }
+  o << "\n## `drops identify`\n\nModel learning from recorded logs (docs/identify.md): the "
+       "task gives the prior and the state and action names, model.* the model.\n\n";
+  markdown_table(o, identify_keys());
   for (const auto& t : registry.task_names()) {
     const TaskPlugin& p = registry.task(t);
     o << "\n## Task `" << t << "`\n\n" << p.description() << "\n\n";
@@ -495,6 +514,15 @@ std::vector<double> get_interval(const Settings& s, const std::string& key) {
     return {n[0].as<double>(), n[1].as<double>()};
   } catch (const YAML::Exception&) {
     fail(key, s.at(key), "expected [lower, upper] of two numbers");
+  }
+}
+std::vector<double> get_numbers(const Settings& s, const std::string& key) {
+  try {
+    std::vector<double> out;
+    for (const auto& n : YAML::Load(s.at(key))) out.push_back(n.as<double>());
+    return out;
+  } catch (const YAML::Exception&) {
+    fail(key, s.at(key), "expected a list of numbers such as [0.1, 0.5]");
   }
 }
 std::vector<std::string> get_names(const Settings& s, const std::string& key) {

@@ -192,11 +192,19 @@ PhiSampling GpDynamicsModel::draw_phi_samples(int count, std::uint64_t seed) {
   if (options_.type != ModelType::kGpMi || options_.gp_mi.rollout_phi != RolloutPhi::kPosterior ||
       K == 0 || !posterior_.covariance.allFinite() || data_x_.rows() != gps_.front().size())
     return out;
-  // The continuous tunable entries, in the posterior's order (phi_posterior).
+  // The continuous tunable entries, in the posterior's order (phi_posterior; an entry at its
+  // bound is held there and not in the posterior).
   std::vector<Eigen::Index> at, bound;
   for (std::size_t k = 0; k < params_.tunable.size(); ++k) {
     if (!params_.choices[k].empty()) continue;
-    at.push_back(params_.tunable[k]);
+    const int i = params_.tunable[k];
+    const std::string name = static_cast<std::size_t>(i) < params_.names.size()
+                                 ? params_.names[static_cast<std::size_t>(i)]
+                                 : "phi" + std::to_string(i);
+    if (std::find(posterior_.names.begin(), posterior_.names.end(), name) ==
+        posterior_.names.end())
+      continue;
+    at.push_back(i);
     bound.push_back(static_cast<Eigen::Index>(k));
   }
   check_size("draw_phi_samples: posterior dimension", static_cast<long>(at.size()), K);

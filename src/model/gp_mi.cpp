@@ -392,8 +392,15 @@ PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& par
     if (!parameters.choices[k].empty()) continue;
     const int i = parameters.tunable[k];
     const auto kk = static_cast<Eigen::Index>(k);
+    const double h = 1e-4 * (parameters.upper[kk] - parameters.lower[kk]);
+    // A parameter within one step of its bound is held at its value (it is not marginalised,
+    // as a hyper-parameter on its box): the stencil would leave the search interval, often
+    // into values the prior refuses (a damping below 0), which made every entry NaN.
+    if (parameters.values[i] - h < parameters.lower[kk] ||
+        parameters.values[i] + h > parameters.upper[kk])
+      continue;
     at.push_back(i);
-    step.push_back(1e-4 * (parameters.upper[kk] - parameters.lower[kk]));
+    step.push_back(h);
     post.names.push_back(static_cast<std::size_t>(i) < parameters.names.size()
                              ? parameters.names[static_cast<std::size_t>(i)]
                              : "phi" + std::to_string(i));

@@ -16,7 +16,9 @@ class Registry;
 /// One configuration key.
 struct KeySpec {
   std::string key;            ///< dotted path, e.g. "model.type"
-  std::string type;           ///< "int", "double", "bool", "string", "enum", "names", "interval"
+  /// "int", "double", "bool", "string", "enum", "names", "interval", "list" (any plain values,
+  /// e.g. file names) or "numbers" (a list of numbers, each in the range)
+  std::string type;
   std::string default_value;  ///< as YAML text ("" = derived, see doc)
   double min = 0, max = 0;    ///< numeric range (inclusive) when min < max
   std::vector<std::string> allowed;  ///< enum values, or the names allowed in a "names" list
@@ -81,7 +83,9 @@ long long get_int(const Settings& s, const std::string& key);
 bool get_bool(const Settings& s, const std::string& key);
 /// The numbers of an "interval" value ("[lower, upper]").
 std::vector<double> get_interval(const Settings& s, const std::string& key);
-/// The entries of a "names" value ("[a, b]").
+/// The numbers of a "numbers" value ("[0.1, 0.5]").
+std::vector<double> get_numbers(const Settings& s, const std::string& key);
+/// The entries of a "names" or "list" value ("[a, b]").
 std::vector<std::string> get_names(const Settings& s, const std::string& key);
 
 }  // namespace drops::experiment

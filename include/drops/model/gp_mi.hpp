@@ -176,7 +176,9 @@ struct PhiPosterior {
 };
 
 /// The PhiPosterior at parameters.values (phi*), for the continuous tunable entries of phi
-/// (discrete ones are held at their value; none: an empty posterior). data: the transitions the
+/// (discrete ones are held at their value; none: an empty posterior). An entry within 1e-4 of
+/// its search interval's width of a bound is held at its value too and left out of `names` (the
+/// posterior of the others given it; a stencil step across the bound would leave the interval). data: the transitions the
 /// GPs were fitted on (gp_in, x, u, dx); gps: the E output GPs fitted at phi* on data.gp_in (not
 /// modified: copies are evaluated); kernels: whether their hyper-parameters are marginalised (the
 /// default) or held fixed. A stencil point the prior rejects (check_phi) or that gives a
