@@ -65,6 +65,7 @@ ScoreDefinition simulation_v1() {
   ScoreDefinition d;
   d.name = "simulation_v1";
   d.formula = ScoreFormula::kLinear;
+  d.rows_after_step = true;
   d.weights = {.swingup_time = 0.2,
                .energy = 0.1,
                .max_tau = 0.1,

@@ -5,8 +5,8 @@
 /// get_max_tau, get_integrated_torque, get_torque_cost, get_tau_smoothness, get_velocity_cost and
 /// leaderboard_scores; weights and normalisation in leaderboard/ROBOT/simulation_v1/ and
 /// simulation_v2/calculate_leaderboard_score.py). Written anew from those definitions; checked
-/// against the published scores in docs/decisions/realaigym-scorer.md (ROBOT: the lab's name for the
-/// double pendulum with joint 2 passive; the full paths are there too).
+/// against the published scores in docs/decisions/realaigym-scorer.md (ROBOT: the lab's name for
+/// the double pendulum with joint 2 passive; the full paths are there too).
 ///
 /// A trajectory is N samples (t_i, x_i, tau_i), x_i = [q1, q2, qd1, qd2] (rad, rad/s) and tau_i
 /// the torques (N m) recorded with it, as in the lab's sim_swingup.csv. Sums run over i = 0..N-2
@@ -61,6 +61,10 @@ struct ScoreDefinition {
   double link2_length = 0.2;      ///< l2, m (> 0)
   double height_fraction = 0.9;   ///< up: end of link 2 above this times (l1 + l2)
   double t_final = 10.0;          ///< the episode's length, s (> 0)
+  /// The files' row layout (the scores do not depend on it beyond the rows they sum): true when
+  /// row i holds x(t_i) and the torque that produced it, the first row at t = sim_dt (v1's files);
+  /// false when row i holds x(t_i) and the torque applied after it, from t = 0 (v2's).
+  bool rows_after_step = false;
   /// True when the fields are finite and in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
 };
