@@ -10,6 +10,7 @@
 #include "drops/core/parallel.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/pendubot/plugin.hpp"
+#include "drops/realaigym/plugin.hpp"
 #ifdef DROPS_WITH_HEXAPOD
 #include "drops/hexapod/plugin.hpp"
 #endif
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   drops::experiment::Registry registry;
   drops::experiment::register_builtin_algorithms(registry);
   drops::pendubot::register_task(registry);  // the default task
+  drops::realaigym::register_task(registry);
 #ifdef DROPS_WITH_HEXAPOD
   drops::hexapod::register_task(registry);
 #else

@@ -24,6 +24,7 @@
 #include "drops/experiment/run.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/pendubot/plugin.hpp"
+#include "drops/realaigym/plugin.hpp"
 #include "python_robot.hpp"
 #ifdef DROPS_WITH_HEXAPOD
 #include "drops/hexapod/plugin.hpp"
@@ -42,6 +43,7 @@ const ex::Registry& registry() { return *g_registry; }
 void register_builtins(ex::Registry& r) {
   ex::register_builtin_algorithms(r);
   drops::pendubot::register_task(r);  // the default task
+  drops::realaigym::register_task(r);
 #ifdef DROPS_WITH_HEXAPOD
   drops::hexapod::register_task(r);
 #else
