@@ -78,7 +78,7 @@ std::vector<KeySpec> description_prior_keys() {
   k[1].unit = "-";
   k[1].doc =
       "with prior.model: phi, a list of {name: N, bounds: [lo, hi], value: V, tunable: T}: N one "
-      "of <body>.mass|com.x|com.y|com.z|inertia, <joint>.damping|friction|armature|gear, gravity; "
+      "of <body>.mass, .com.x, .com.y, .com.z, .inertia; <joint>.damping, .friction, .armature, .gear; gravity; "
       "value default the file's; tunable default true (then bounds are required)";
   k[2].key = kSubsteps;
   k[2].type = "int";
