@@ -11,7 +11,7 @@
 /// The grammar, in a `drops run` configuration (docs/your-own-robot.md):
 ///
 ///     prior:
-///       model: pendubot.xml          # a URDF or an MJCF file
+///       model: robot.xml             # a URDF or an MJCF file
 ///       parameters:                  # phi, in this order
 ///         - {name: Link1.mass, bounds: [0.05, 1], value: 0.65}   # value: default the file's
 ///         - {name: Link2.com.z, bounds: [0.025, 0.5]}
@@ -106,7 +106,7 @@ std::vector<KeySpec> description_prior_keys();
 /// Whether settings choose a description-file prior (prior.model is a key of their schema and
 /// not empty). Thread-safe.
 bool uses_description_prior(const Settings& settings);
-/// The prior's label in run names and report panels: the file's name, e.g. "pendubot.xml".
+/// The prior's label in run names and report panels: the file's name, e.g. "robot.urdf".
 /// Thread-safe.
 std::string description_prior_label(const Settings& settings);
 
