@@ -137,8 +137,8 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
 #endif
     const auto drops_in_place = [&](const std::string& args, std::string* err) {
       if (!description_file) return run_drops(args, err);
-      return shell("cd " + std::string(DROPS_SOURCE_DIR) + " && " + DROPS_BINARY + " " + args,
-                   err);
+      const std::string in_source = "cd " + std::string(DROPS_SOURCE_DIR) + " && ";
+      return drops::cli_test::shell(in_source + DROPS_BINARY + " " + args, err);
     };
     if (text.str().find("\ngrid:") != std::string::npos) {
       ++campaigns;
