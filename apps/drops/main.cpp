@@ -14,6 +14,9 @@
 #ifdef DROPS_WITH_HEXAPOD
 #include "drops/hexapod/plugin.hpp"
 #endif
+#ifdef DROPS_WITH_MUJOCO
+#include "drops/description/experiment_factory.hpp"
+#endif
 
 int main(int argc, char** argv) {
   drops::use_single_threaded_blas();
@@ -27,6 +30,10 @@ int main(int argc, char** argv) {
   registry.add_unavailable_task(
       "hexapod", "this drops was built without DART 6; run scripts/install-deps, then "
                  "scripts/build again");
+#endif
+#ifdef DROPS_WITH_MUJOCO
+  // prior.model: a URDF or MJCF file as the simulator prior (drops::description, MuJoCo).
+  registry.set_description_prior_factory(drops::description::experiment_factory());
 #endif
   return drops::cli::run(argc, argv, registry);
 }

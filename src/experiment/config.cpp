@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -92,7 +93,7 @@ std::string joined(const std::vector<std::string>& v) {
 /// Validates one value against its spec; returns the canonical text stored in Settings.
 std::string validate(const KeySpec& s, const YAML::Node& n) {
   const std::string text = node_text(n);
-  if (s.type == "string") {
+  if (s.type == "string" || s.type == "path") {
     if (n.IsNull()) return "";
     if (!n.IsScalar()) fail(s.key, text, "expected a string");
     return n.Scalar();
@@ -133,6 +134,14 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     if (!(lo < hi)) fail(s.key, text, "expected lower < upper");
     return text;
   }
+  if (s.type == "list") {
+    if (!n.IsSequence()) fail(s.key, text, "expected a list such as [a, b] or [{a: 1}, {a: 2}]");
+    YAML::Emitter e;
+    e.SetSeqFormat(YAML::Flow);
+    e.SetMapFormat(YAML::Flow);
+    e << n;
+    return e.c_str();
+  }
   if (s.type == "names") {
     if (!n.IsSequence()) fail(s.key, text, "expected a list such as [a, b]");
     std::set<std::string> seen;
@@ -143,12 +152,6 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
       if (!seen.insert(e.Scalar()).second)
         fail(s.key, text, "'" + e.Scalar() + "' is listed twice");
     }
-    return text;
-  }
-  if (s.type == "list") {
-    if (!n.IsSequence()) fail(s.key, text, "expected a list such as [a, b]");
-    for (const auto& e : n)
-      if (!e.IsScalar()) fail(s.key, text, "expected a list of plain values such as [a, b]");
     return text;
   }
   if (s.type == "numbers") {
@@ -323,11 +326,25 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
 Settings load_settings_file(const Registry& registry, const std::string& path,
                             const std::vector<std::string>& overrides) {
   const std::string text = read_config_file(path);
+  Settings s;
   try {
-    return load_settings(registry, text, overrides);
+    s = load_settings(registry, text, overrides);
   } catch (const ConfigError& e) {
     throw ConfigError(path + ": " + e.what());
   }
+  // A relative "path" key: in the configuration file's directory, then the working directory.
+  namespace fs = std::filesystem;
+  for (const auto& spec : schema(registry, s.at("task"))) {
+    if (spec.type != "path") continue;
+    std::string& v = s[spec.key];
+    if (v.empty() || fs::path(v).is_absolute()) continue;
+    std::error_code ec;
+    const fs::path beside = fs::path(path).parent_path() / v;
+    v = (fs::exists(beside, ec) ? fs::absolute(beside, ec) : fs::absolute(v, ec))
+            .lexically_normal()
+            .string();
+  }
+  return s;
 }
 
 void resolve_derived_defaults(const Registry& registry, Settings& settings) {
@@ -370,7 +387,7 @@ YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
   const std::string type = spec ? spec->type : "string";
   if (type == "interval" || type == "names" || type == "list" || type == "numbers")
     return YAML::Load(v);
-  if (type == "string" || type == "enum") return YAML::Node(v);
+  if (type == "string" || type == "enum" || type == "path") return YAML::Node(v);
   if (v.empty()) return YAML::Node(YAML::NodeType::Null);
   return YAML::Load(v);
 }

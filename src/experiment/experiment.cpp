@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -387,6 +388,37 @@ void check_setup_names(const std::string& task, const TaskSetup& setup, bool use
          "'_'): it names run directories");
 }
 
+namespace {
+
+// The description file of prior.model as the task's prior (TaskSetup::joints).
+void use_description_prior(const Registry& registry, Experiment& e) {
+  const Settings& st = e.settings;
+  if (!e.setup.joints)
+    throw ConfigError("config key 'prior.model' = '" + st.at("prior.model") + "': task '" +
+                      e.task +
+                      "' declares no joints (TaskSetup::joints), so it cannot use a description "
+                      "file as its prior");
+  if (!e.setup.task) throw ConfigError("config key 'prior.model': task '" + e.task + "' has none");
+  DescriptionPriorSetup d =
+      make_description_prior(registry.description_prior_factory(), description_prior_spec(st),
+                             *e.setup.joints, e.setup.task->dt());
+  if (d.prior->state_dim() != e.setup.task->state_dim() ||
+      d.prior->action_dim() != e.setup.task->action_dim())
+    throw ConfigError(fmt::format(
+        "config key 'prior.model' = '{}': the prior's state and action have {} and {} "
+        "dimensions, task '{}' {} and {}",
+        st.at("prior.model"), d.prior->state_dim(), d.prior->action_dim(), e.task,
+        e.setup.task->state_dim(), e.setup.task->action_dim()));
+  e.setup.prior = std::move(d.prior);
+  e.setup.prior_parameters = std::move(d.parameters);
+  e.setup.phi_actual.assign(e.setup.prior_parameters.names.size(),
+                            std::numeric_limits<double>::quiet_NaN());
+  for (auto& [k, v] : d.declaration) e.setup.declaration[k] = v;
+  e.setup.prior_label = description_prior_label(st);
+}
+
+}  // namespace
+
 Experiment make_experiment(const Registry& registry, const Settings& settings) {
   Experiment e;
   e.settings = settings;
@@ -411,6 +443,7 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
                       ": a path cannot hold a NUL character");
   e.variant = algorithm.variant(st);
   e.setup = task.make(st);
+  if (uses_description_prior(st)) use_description_prior(registry, e);
   // Trajectory columns of a task that does not name them.
   const auto generic = [&e](std::vector<std::string>& names, const char* symbol, int dim) {
     if (names.empty())

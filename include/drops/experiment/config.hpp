@@ -16,8 +16,10 @@ class Registry;
 /// One configuration key.
 struct KeySpec {
   std::string key;            ///< dotted path, e.g. "model.type"
-  /// "int", "double", "bool", "string", "enum", "names", "interval", "list" (any plain values,
-  /// e.g. file names) or "numbers" (a list of numbers, each in the range)
+  /// "int", "double", "bool", "string", "enum", "names", "interval", "path" (a string; relative:
+  /// looked for in the configuration file's directory, then the working directory, and made
+  /// absolute by load_settings_file), "list" (any YAML list, e.g. file names or
+  /// maps, read by the key's own reader), "numbers" (a list of numbers, each in the range)
   std::string type;
   std::string default_value;  ///< as YAML text ("" = derived, see doc)
   double min = 0, max = 0;    ///< numeric range (inclusive) when min < max
@@ -58,6 +60,8 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
                        const std::vector<std::string>& overrides);
 /// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
+/// The value of a "path" key that is relative becomes absolute: the file's directory joined with
+/// it when that exists, else the working directory joined with it.
 Settings load_settings_file(const Registry& registry, const std::string& path,
                             const std::vector<std::string>& overrides);
 

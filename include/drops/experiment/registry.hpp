@@ -19,6 +19,7 @@
 #include "drops/algo/black_drops.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/experiment/description_prior.hpp"
 #include "drops/experiment/state_files.hpp"
 
 namespace drops::experiment {
@@ -187,6 +188,11 @@ struct TaskSetup {
   /// its policy's max_action and observation scale. Recorded in the run directory and compared
   /// when a run is resumed. May be empty.
   std::map<std::string, std::string> declaration;
+  /// How the task's state and action map onto a robot description file's joints, for a task
+  /// that offers a description-file prior (it includes description_prior_keys() in its keys):
+  /// with prior.model set, make_experiment replaces `prior`, `prior_parameters` and
+  /// `phi_actual` (unknown: NaN) by the file's (make_description_prior). Empty: none.
+  std::optional<JointDeclaration> joints;
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };
@@ -298,6 +304,15 @@ class Registry {
   std::string default_algorithm() const;
   /// The registered task whose keys include `key` (nullptr if none).
   const TaskPlugin* task_of_key(const std::string& key) const;
+  /// Sets what loads a description file as a prior (prior.model; description_prior.hpp): the
+  /// application registers drops::description's when it is built with MuJoCo.
+  void set_description_prior_factory(DescriptionPriorFactory factory) {
+    description_prior_factory_ = std::move(factory);
+  }
+  /// The factory of set_description_prior_factory (empty: none, a build without MuJoCo).
+  const DescriptionPriorFactory& description_prior_factory() const {
+    return description_prior_factory_;
+  }
 
  private:
   std::vector<std::unique_ptr<TaskPlugin>> tasks_;
@@ -305,6 +320,7 @@ class Registry {
   std::map<std::string, std::string> unavailable_;
   std::vector<std::unique_ptr<AlgorithmPlugin>> algorithms_;
   std::vector<ModelVariant> model_variants_;
+  DescriptionPriorFactory description_prior_factory_;
 };
 
 /// Registers the algorithms of drops::core: "black_drops" (Black-DROPS and its variants, by

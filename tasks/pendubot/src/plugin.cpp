@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
+#include "drops/experiment/description_prior.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/ite/behaviour.hpp"
@@ -156,7 +157,11 @@ class PendubotPlugin final : public experiment::TaskPlugin {
             {"model.reflect_transitions", "true"}};
   }
 
-  std::vector<KeySpec> keys() const override { return key_table().specs(); }
+  std::vector<KeySpec> keys() const override {
+    std::vector<KeySpec> k = key_table().specs();
+    for (auto& d : experiment::description_prior_keys()) k.push_back(std::move(d));
+    return k;
+  }
 
   experiment::TaskSetup make(const Settings& st) const override {
     const PendubotKeys k = key_table().read(st);
@@ -234,10 +239,26 @@ class PendubotPlugin final : public experiment::TaskPlugin {
             ", each coordinate as (p + L) / 2L with L = l1 + l2 of the prior";
     s.algorithm_data.set("ite", std::move(b));
     for (const auto& n : kParams) s.real_system_keys.push_back("system." + n);
+    // A description file as the prior (prior.model; tasks/pendubot/data/pendubot.xml): q =
+    // [Joint1, Joint2] relative angles, so theta1 = q1 and theta2 = q1 + q2 (absolute, as the
+    // equations'); x = [dtheta1, dtheta2, theta1, theta2] = S [q1, q2, qd1, qd2]. The torque is
+    // clipped as the system clips it; RK4 substeps as the system's.
+    experiment::JointDeclaration j;
+    j.joints = {"Joint1", "Joint2"};
+    j.actuated = {"Joint1"};
+    j.state_from_joints.setZero(4, 4);
+    j.state_from_joints(0, 2) = 1;
+    j.state_from_joints(1, 2) = j.state_from_joints(1, 3) = 1;
+    j.state_from_joints(2, 0) = 1;
+    j.state_from_joints(3, 0) = j.state_from_joints(3, 1) = 1;
+    j.action_limit = VectorXd::Constant(1, to.max_torque);
+    j.substeps = to.substeps;
+    s.joints = std::move(j);
     return s;
   }
 
   std::string prior_label(const Settings& st) const override {
+    if (experiment::uses_description_prior(st)) return experiment::description_prior_label(st);
     return key_table().read(st).preset;
   }
 
@@ -250,6 +271,14 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     p.rank = it == kPanelOrder.end() ? 100 : static_cast<int>(it - kPanelOrder.begin());
     p.title = it == kPanelOrder.end() ? p.label : kPanelTitles[static_cast<std::size_t>(p.rank)];
     r.phi_tunable = k.tunable;
+    if (experiment::uses_description_prior(st)) {
+      p.label = experiment::description_prior_label(st);
+      p.rank = 100;
+      p.title = "description file " + p.label;
+      r.phi_tunable.clear();
+      for (const auto& e : experiment::description_prior_parameters(st))
+        if (e.tunable) r.phi_tunable.push_back(e.name);
+    }
     for (const auto& n : kParams)
       r.phi_labels[n] = {n, n[0] == 'm' ? "kg" : n[0] == 'l' ? "m" : "N·m·s/rad"};
     r.column_labels = {{"theta1", {"θ₁", "rad"}},
