@@ -236,6 +236,11 @@ TEST(DescriptionPriorConfig, ARelativePathIsTheConfigFilesAndTheDigestFollowsThe
   fs::remove_all(dir);
 }
 
+TEST(DescriptionPriorConfig, ParametersWithoutAFileAreRefused) {
+  const std::string m = error_of({"prior.parameters=[{name: Link1.mass, bounds: [0, 1]}]"});
+  EXPECT_NE(m.find("prior.model is empty"), std::string::npos) << m;
+}
+
 TEST(DescriptionPriorConfig, ATaskWithoutAPriorModelKeepsItsOwnPrior) {
   const auto e =
       experiment::make_experiment(registry(), experiment::load_settings(registry(), "", {}));

@@ -29,6 +29,9 @@
 #ifdef DROPS_WITH_HEXAPOD
 #include "drops/hexapod/plugin.hpp"
 #endif
+#ifdef DROPS_WITH_MUJOCO
+#include "drops/description/experiment_factory.hpp"
+#endif
 
 namespace py = pybind11;
 namespace ex = drops::experiment;
@@ -49,6 +52,11 @@ void register_builtins(ex::Registry& r) {
 #else
   r.add_unavailable_task("hexapod", "this drops was built without DART 6; run "
                                     "scripts/install-deps, then scripts/build again");
+#endif
+#ifdef DROPS_WITH_MUJOCO
+  // prior.model: a URDF or MJCF file as a built-in task's prior (drops::description, MuJoCo),
+  // as in the drops command line.
+  r.set_description_prior_factory(drops::description::experiment_factory());
 #endif
 }
 

@@ -443,7 +443,11 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
                       ": a path cannot hold a NUL character");
   e.variant = algorithm.variant(st);
   e.setup = task.make(st);
-  if (uses_description_prior(st)) use_description_prior(registry, e);
+  if (uses_description_prior(st))
+    use_description_prior(registry, e);
+  else if (st.count("prior.parameters") && st.at("prior.parameters") != "[]")
+    throw ConfigError("config key 'prior.parameters' = '" + st.at("prior.parameters") +
+                      "': it sets the phi of a description file, but prior.model is empty");
   // Trajectory columns of a task that does not name them.
   const auto generic = [&e](std::vector<std::string>& names, const char* symbol, int dim) {
     if (names.empty())

@@ -97,7 +97,9 @@ void check_setup_names(const std::string& task, const TaskSetup& setup, bool use
 /// the algorithm (AlgorithmPlugin::make). Throws ConfigError for combinations the schema cannot
 /// check alone (the message names the key), among them a key name that is not a directory name
 /// (is_directory_name) or an output path with a NUL character, and InvalidArgument for a task
-/// whose names break the run files (check_setup_names).
+/// whose names break the run files (check_setup_names). With prior.model set, the task's prior
+/// is the description file's (make_description_prior, TaskSetup::joints); prior.parameters
+/// without prior.model is a ConfigError.
 Experiment make_experiment(const Registry& registry, const Settings& settings);
 
 /// The options of Algorithm 1 from settings (model.*, policy.bound, optimizer.*, rollouts.*,
