@@ -256,9 +256,7 @@ void SparseGp::factorise(const SquaredExpArd& kernel, double log_sigma_n, const 
   log_det_lb_ = LB_.diagonal().array().log().sum();
   jitter_ = jitter;
   kernel_ = kernel;
-  log_sigma_n_ = log_sigma_n;
-  h_.head(input_dim_ + 1) = kernel.h_params();
-  h_[input_dim_ + 1] = log_sigma_n;
+  log_sigma_n_ = log_sigma_n;  // h_ is set by the caller (exactly the h given, for resume)
   update_targets();
 }
 
