@@ -1156,3 +1156,103 @@ TEST(Models, ReflectedTransitionsNeedATaskThatDeclaresAReflection) {
     EXPECT_NE(std::string(e.what()).find("declares no reflection"), std::string::npos) << e.what();
   }
 }
+
+namespace {
+
+/// gp_mi on the pendubot prior with sparse output GPs of at most m inducing inputs.
+model::ModelOptions sparse_gp_mi_options(int m) {
+  model::ModelOptions o;
+  o.type = model::ModelType::kGpMi;
+  o.inducing_points = m;
+  return o;
+}
+
+}  // namespace
+
+TEST(GpMi, SparseOutputGpsIdentifyM2AndPredictHeldOutTransitions) {
+  const auto data = actual_data(4);
+  ASSERT_EQ(data.size(), 200u);
+  auto m = model::make_model(sparse_gp_mi_options(60), std::make_shared<pendubot::SwingUpTask>(),
+                             std::make_shared<pendubot::PendubotPrior>(),
+                             tunable_prior("tunable"));
+  const auto s = m->learn(data);
+  const auto& gm = static_cast<const model::GpDynamicsModel&>(*m);
+  ASSERT_TRUE(gm.sparse());
+  for (const auto& g : gm.sparse_output_gps()) {
+    EXPECT_EQ(g.size(), 200);
+    EXPECT_LE(g.inducing_size(), 60);
+  }
+  EXPECT_NEAR(s.phi[1], 0.5, 0.025) << s.BriefReport();
+  EXPECT_TRUE(s.phi_posterior.covariance.allFinite());
+  const auto test = actual_data(5);
+  double err = 0;
+  Prediction p;
+  for (std::size_t n = 200; n < test.size(); ++n) {
+    m->predict(test[n].x, test[n].u, p);
+    err = std::max(err, (p.mean - test[n].dx).cwiseAbs().maxCoeff());
+    EXPECT_TRUE((p.var.array() >= 0).all());
+  }
+  EXPECT_LT(err, 0.05);
+}
+
+TEST(Models, InducingPointsAtLeastTheDataLeaveTheModelExact) {
+  const auto data = actual_data(1);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::ModelOptions o = gp_prior_options(0);
+  auto exact = model::make_model(o, task, prior, tunable_prior("tunable"));
+  o.inducing_points = static_cast<int>(data.size());
+  auto same = model::make_model(o, task, prior, tunable_prior("tunable"));
+  exact->learn(data);
+  same->learn(data);
+  EXPECT_FALSE(static_cast<const model::GpDynamicsModel&>(*same).sparse());
+  Prediction a, b;
+  for (std::size_t n = 0; n < data.size(); n += 7) {
+    exact->predict(data[n].x, data[n].u, a);
+    same->predict(data[n].x, data[n].u, b);
+    EXPECT_EQ(a.mean, b.mean);
+    EXPECT_EQ(a.var, b.var);
+  }
+}
+
+TEST(Models, ASparseModelRestoredFromItsStateLearnsExactlyAsTheOriginal) {
+  const auto data = actual_data(3);
+  const std::vector<Transition> first(data.begin(), data.begin() + 100);
+  auto task = std::make_shared<pendubot::SwingUpTask>();
+  auto prior = std::make_shared<pendubot::PendubotPrior>();
+  model::ModelOptions o = sparse_gp_mi_options(40);
+  o.gp_mi.max_evaluations = 60;
+  o.gp_mi.rounds = 2;
+  o.rprop.max_iterations = 40;
+  auto original = model::make_model(o, task, prior, tunable_prior("tunable"));
+  original->learn(first);
+  ASSERT_TRUE(static_cast<const model::GpDynamicsModel&>(*original).sparse());
+  auto resumed = model::make_model(o, task, prior, tunable_prior("tunable"));
+  resumed->restore(original->state());
+  const auto s1 = original->learn(data);
+  const auto s2 = resumed->learn(data);
+  EXPECT_EQ(s1.phi, s2.phi);
+  EXPECT_EQ(s1.log_likelihoods, s2.log_likelihoods);
+  Prediction a, b;
+  for (std::size_t n = 0; n < data.size(); n += 11) {
+    original->predict(data[n].x, data[n].u, a);
+    resumed->predict(data[n].x, data[n].u, b);
+    EXPECT_EQ(a.mean, b.mean);
+    EXPECT_EQ(a.var, b.var);
+  }
+}
+
+TEST(Models, InducingPointsRefusePosteriorRollouts) {
+  model::ModelOptions o = sparse_gp_mi_options(100);
+  o.gp_mi.rollout_phi = model::RolloutPhi::kPosterior;
+  EXPECT_THROW(model::make_model(o, std::make_shared<pendubot::SwingUpTask>(),
+                                 std::make_shared<pendubot::PendubotPrior>(),
+                                 tunable_prior("tunable")),
+               InvalidArgument);
+  o.gp_mi.rollout_phi = model::RolloutPhi::kPoint;
+  o.inducing_points = -1;
+  EXPECT_THROW(model::make_model(o, std::make_shared<pendubot::SwingUpTask>(),
+                                 std::make_shared<pendubot::PendubotPrior>(),
+                                 tunable_prior("tunable")),
+               InvalidArgument);
+}

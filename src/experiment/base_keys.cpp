@@ -97,6 +97,14 @@ KeyTable<BaseOptions> make_base_key_table() {
             "transitions once there are more, chosen greedily where the subset so far explains "
             "the data least (subset of data: never below the exact variance, O(m^2) instead of "
             "O(N^2) per prediction; means use every transition); 0 = every transition");
+  t.add("model.inducing_points", [=](auto& o) -> auto& { return model(o).inducing_points; })
+      .range(0, 1000000)
+      .help("gp, gp_prior, gp_mi: once the output GPs have more than this many points, sparse "
+            "GPs with at most this many inducing inputs (the variational bound of Titsias 2009, "
+            "inputs chosen among the transitions by greedy conditional variance): learning "
+            "O(N m^2) instead of O(N^3), predictions O(m^2) (variance_points is then unused); "
+            "GP-MI's phi search too when its gp_mi.max_points exceed it; not with "
+            "gp_mi.rollout_phi: posterior; 0 = exact GPs whatever the number of points");
   t.add("model.reflect_transitions",
         [=](auto& o) -> auto& { return model(o).reflect_transitions; })
       .help("gp, gp_prior, gp_mi: also learn every recorded transition reflected by the task's "

@@ -8,6 +8,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/gp/gp.hpp"
+#include "rprop_loop.hpp"
 
 namespace drops::gp {
 namespace {
@@ -126,35 +127,22 @@ bool RpropOptions::IsValid(std::string* why) const {
   return true;
 }
 
-RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* state) {
-  std::string why;
-  if (!options.IsValid(&why)) {
-    throw InvalidArgument("Gp::optimize_h_params: invalid RpropOptions: " + why);
-  }
-  if (size() == 0) {
-    throw InvalidArgument(
-        "Gp::optimize_h_params: training points: expected N >= 1 (call compute first), got 0");
-  }
-  if (options.penalty && !se_) {
-    throw InvalidArgument("Gp::optimize_h_params: the soft walls (penalty) need the SE-ARD kernel, "
-                          "this GP has '" + kernel_->name() + "'");
-  }
-  const Eigen::Index P = h_.size();
-  if (state != nullptr && state->started && state->h.size() != P) {
-    throw InvalidArgument("Gp::optimize_h_params: state: expected " + std::to_string(P) +
-                          " hyper-parameters, got " + std::to_string(state->h.size()));
-  }
+namespace detail {
+
+RpropSummary run_irprop(const RpropOptions& options, const Eigen::MatrixXd& X,
+                        const Eigen::VectorXd& h0, RpropState* state, const RpropTarget& target) {
+  const Eigen::Index P = h0.size();
   Eigen::VectorXd lo = Eigen::VectorXd::Constant(P, kLogMin);
   Eigen::VectorXd hi = Eigen::VectorXd::Constant(P, kLogMax);
   lo[P - 1] = kLogNoiseStdMin;
 
   RpropSummary summary;
   // The objective f = log p(y | X, h) - walls(h), walls = 0 without options.penalty.
-  const SoftWalls walls(options, X_);
+  const SoftWalls walls(options, X);
   auto objective = [&](const Eigen::VectorXd& at, Eigen::VectorXd& grad) {
-    grad = log_marginal_likelihood_gradient();
+    const double ll = target.evaluate(grad);
     Eigen::VectorXd wall_grad = Eigen::VectorXd::Zero(P);
-    const double value = log_marginal_likelihood() - walls(at, &wall_grad);
+    const double value = ll - walls(at, &wall_grad);
     grad -= wall_grad;
     return value;
   };
@@ -179,10 +167,10 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* stat
     pending = true;
   } else {
     // Warm start: the current h is already factorised.
-    h = h_params();
+    h = h0;
     double f = objective(h, g);
     summary.iterations = 1;
-    summary.initial_log_likelihood = log_marginal_likelihood();
+    summary.initial_log_likelihood = target.value();
     best_h = h;
     best_g = g;
     best_f = std::isfinite(f) && g.allFinite() ? f : -std::numeric_limits<double>::infinity();
@@ -205,11 +193,11 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* stat
           g[i] = 0.0;
         }
         const double step = g[i] > 0.0 ? delta[i] : (g[i] < 0.0 ? -delta[i] : 0.0);
-        const double target = h[i] + step;
-        h[i] = std::clamp(target, lo[i], hi[i]);
+        const double to = h[i] + step;
+        h[i] = std::clamp(to, lo[i], hi[i]);
         // A parameter pinned at the box keeps a moderate step, so that it can come back quickly
         // and does not jump across the box when its gradient changes sign.
-        if (h[i] != target) delta[i] = std::min(delta[i], options.delta0);
+        if (h[i] != to) delta[i] = std::min(delta[i], options.delta0);
         g_prev[i] = g[i];
       }
       if (delta.maxCoeff() <= options.delta_min) {  // every step at the floor: converged
@@ -227,7 +215,7 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* stat
     double f = 0.0;
     bool ok = true;
     try {
-      apply_h(h, /*subset=*/false);  // the subset's factor once, for the iterate kept
+      target.apply(h);
       f = objective(h, g);
       ok = std::isfinite(f) && g.allFinite();
     } catch (const NumericalError&) {
@@ -268,12 +256,45 @@ RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* stat
     state->best_f = best_f;
     state->best_history = best_history;
   }
-  // Keep the best iterate (it factorised before, so this succeeds; so does its variance subset's
-  // factor, a principal block of the same positive definite matrix, barring round-off).
-  apply_h(best_h);
-  summary.final_log_likelihood = log_marginal_likelihood();
+  target.keep(best_h);
+  summary.final_log_likelihood = target.value();
   summary.final_penalty = walls(best_h, nullptr);
   return summary;
+}
+
+}  // namespace detail
+
+RpropSummary Gp::optimize_h_params(const RpropOptions& options, RpropState* state) {
+  std::string why;
+  if (!options.IsValid(&why)) {
+    throw InvalidArgument("Gp::optimize_h_params: invalid RpropOptions: " + why);
+  }
+  if (size() == 0) {
+    throw InvalidArgument(
+        "Gp::optimize_h_params: training points: expected N >= 1 (call compute first), got 0");
+  }
+  if (options.penalty && !se_) {
+    throw InvalidArgument("Gp::optimize_h_params: the soft walls (penalty) need the SE-ARD kernel, "
+                          "this GP has '" + kernel_->name() + "'");
+  }
+  const Eigen::Index P = h_.size();
+  if (state != nullptr && state->started && state->h.size() != P) {
+    throw InvalidArgument("Gp::optimize_h_params: state: expected " + std::to_string(P) +
+                          " hyper-parameters, got " + std::to_string(state->h.size()));
+  }
+  detail::RpropTarget target;
+  target.apply = [this](const Eigen::VectorXd& h) {
+    apply_h(h, /*subset=*/false);  // the subset's factor once, for the iterate kept
+  };
+  target.evaluate = [this](Eigen::VectorXd& grad) {
+    grad = log_marginal_likelihood_gradient();
+    return log_marginal_likelihood();
+  };
+  target.value = [this] { return log_marginal_likelihood(); };
+  // Keep the best iterate (it factorised before, so this succeeds; so does its variance subset's
+  // factor, a principal block of the same positive definite matrix, barring round-off).
+  target.keep = [this](const Eigen::VectorXd& h) { apply_h(h); };
+  return detail::run_irprop(options, X_, h_params(), state, target);
 }
 
 }  // namespace drops::gp

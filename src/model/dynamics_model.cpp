@@ -35,6 +35,11 @@ bool ModelOptions::IsValid(std::string* why) const {
                     std::to_string(variance_points);
     return false;
   }
+  if (inducing_points < 0) {
+    if (why) *why = "inducing_points must be >= 0 (0: exact GPs), got " +
+                    std::to_string(inducing_points);
+    return false;
+  }
   return mi.IsValid(why);
 }
 

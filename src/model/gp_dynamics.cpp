@@ -1,10 +1,9 @@
 #include "drops/model/gp_dynamics.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <sstream>
-
-#include <Eigen/Eigenvalues>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/rng.hpp"
@@ -24,8 +23,7 @@ std::string format_phi(const VectorXd& phi) {
 }
 }  // namespace
 
-GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
-                                 std::shared_ptr<const Task> task,
+GpDynamicsModel::GpDynamicsModel(const ModelOptions& options, std::shared_ptr<const Task> task,
                                  std::shared_ptr<const MeanFunction> prior,
                                  const PriorParameters& parameters)
     : options_(options), task_(std::move(task)), prior_(std::move(prior)), params_(parameters) {
@@ -51,9 +49,7 @@ GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
     check_size("task reflection state_sign", E_, reflection_->state_sign.size());
     check_size("task reflection state_offset", E_, reflection_->state_offset.size());
     check_size("task reflection action_sign", U_, reflection_->action_sign.size());
-    const auto signs = [](const VectorXd& v) {
-      return (v.array().abs() == 1.0).all();
-    };
+    const auto signs = [](const VectorXd& v) { return (v.array().abs() == 1.0).all(); };
     if (!signs(reflection_->state_sign) || !signs(reflection_->action_sign) ||
         !reflection_->state_offset.allFinite())
       throw InvalidArgument("task '" + task_->name() +
@@ -72,17 +68,45 @@ GpDynamicsModel::GpDynamicsModel(const ModelOptions& options,
     throw InvalidArgument(
         "model.gp_mi.rollout_phi: posterior draws phi from GP-MI's posterior over its continuous "
         "tunable parameters, and this prior tunes none (" +
-        std::string(params_.tunable.empty() ? "nothing is tunable" : "every tunable entry is discrete") +
+        std::string(params_.tunable.empty() ? "nothing is tunable"
+                                            : "every tunable entry is discrete") +
         "); use rollout_phi: point");
   }
+  if (options_.inducing_points > 0 && options_.type == ModelType::kGpMi &&
+      options_.gp_mi.rollout_phi == RolloutPhi::kPosterior)
+    throw InvalidArgument(
+        "model.inducing_points: the sparse output GPs do not draw rollouts over phi's posterior "
+        "(model.gp_mi.rollout_phi: posterior); use rollout_phi: point or inducing_points: 0");
   gps_.assign(static_cast<std::size_t>(E_), gp::Gp(O_ + U_));
   for (auto& g : gps_) g.set_variance_points(options_.variance_points);
+  if (options_.inducing_points > 0) {
+    gp::SparseGpOptions so;
+    so.inducing_points = options_.inducing_points;
+    sparse_.assign(static_cast<std::size_t>(E_), gp::SparseGp(O_ + U_, so));
+  }
+}
+
+void GpDynamicsModel::activate(bool sparse) {
+  if (sparse == sparse_active_) return;
+  for (std::size_t i = 0; i < gps_.size(); ++i) {
+    if (sparse) {
+      const VectorXd h = gps_[i].h_params();
+      sparse_[i] = gp::SparseGp(O_ + U_, sparse_[i].options());
+      sparse_[i].set_h_params(h);
+    } else {
+      const VectorXd h = sparse_[i].h_params();
+      gps_[i] = gp::Gp(O_ + U_);
+      gps_[i].set_h_params(h);  // (variance_points: set by learn() after its final fit)
+    }
+  }
+  sparse_active_ = sparse;
 }
 
 ModelState GpDynamicsModel::state() const {
   ModelState st;
   st.phi = phi_;
-  for (const auto& g : gps_) st.h_params.push_back(g.h_params());
+  for (std::size_t i = 0; i < gps_.size(); ++i)
+    st.h_params.push_back(sparse_active_ ? sparse_[i].h_params() : gps_[i].h_params());
   return st;
 }
 
@@ -91,9 +115,21 @@ void GpDynamicsModel::restore(const ModelState& st) {
   check_size("restored GP count", E_, static_cast<Eigen::Index>(st.h_params.size()));
   if (!st.phi.allFinite()) throw InvalidArgument("restored phi is not finite");
   if (prior_) prior_->check_phi(st.phi);
-  std::vector<gp::Gp> gps = gps_;
-  for (std::size_t i = 0; i < gps.size(); ++i) gps[i].set_h_params(st.h_params[i]);
+  // Both sets without data, at the state's hyper-parameters: the next learn() starts from them
+  // whichever set it uses, as the run that saved the state did.
+  std::vector<gp::Gp> gps(gps_.size(), gp::Gp(O_ + U_));
+  for (std::size_t i = 0; i < gps.size(); ++i) {
+    gps[i].set_h_params(st.h_params[i]);
+    gps[i].set_variance_points(options_.variance_points);
+  }
+  std::vector<gp::SparseGp> sparse = sparse_;
+  for (std::size_t i = 0; i < sparse.size(); ++i) {
+    sparse[i] = gp::SparseGp(O_ + U_, sparse[i].options());
+    sparse[i].set_h_params(st.h_params[i]);
+  }
   gps_ = std::move(gps);
+  sparse_ = std::move(sparse);
+  sparse_active_ = false;
   phi_ = st.phi;
   clear_samples();
   posterior_ = PhiPosterior{};
@@ -117,10 +153,18 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.
   for (auto& g : gps_) g.set_variance_points(0);
+  // ModelOptions::inducing_points: sparse GPs where the data exceed m (the search's and the
+  // final fit's separately).
+  const int M = options_.inducing_points;
+  const int search_points =
+      options_.gp_mi.max_points > 0 ? std::min(options_.gp_mi.max_points, d.size()) : d.size();
   // GP-MI (Algorithm 2): phi, warm-started from the previous episode's phi and kernels.
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty()) {
-    const GpMiSummary mi = identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, gps_,
-                                        progress);
+    activate(M > 0 && search_points > M);
+    const GpMiSummary mi =
+        sparse_active_
+            ? identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, sparse_, progress)
+            : identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, gps_, progress);
     phi_ = mi.phi;
     params_.values = phi_;  // warm start of the next episode
     s.phi_evaluations = mi.evaluations;
@@ -136,6 +180,19 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   if (!targets.allFinite())
     throw NumericalError("the simulator prior returned non-finite values at phi = [" +
                          format_phi(phi_) + "] on the recorded data");
+  activate(M > 0 && d.size() > M);
+  if (sparse_active_) {
+    s.log_likelihoods =
+        fit_output_gps(sparse_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
+    if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
+      s.phi_posterior = phi_posterior(*prior_, params_, d, sparse_);
+    clear_samples();
+    posterior_ = s.phi_posterior;
+    s.score = gp_mi_score(s.log_likelihoods, options_.gp_mi.score);
+    s.phi = phi_;
+    s.seconds = seconds_since(t0);
+    return s;
+  }
   s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
@@ -210,8 +267,7 @@ PhiSampling GpDynamicsModel::draw_phi_samples(int count, std::uint64_t seed) {
   check_size("draw_phi_samples: posterior dimension", static_cast<long>(at.size()), K);
   // Symmetric square root of the covariance (semi-definite: negative round-off set to 0).
   const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(posterior_.covariance);
-  const MatrixXd C = eig.eigenvectors() *
-                     eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+  const MatrixXd C = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
                      eig.eigenvectors().transpose();
   Rng rng(seed);
   const Eigen::Index N = data_x_.rows();
@@ -295,8 +351,8 @@ void GpDynamicsModel::predict_batch_sampled(const MatrixXd& X, const MatrixXd& U
   }
   var.resize(B, E_);
   for (int i = 0; i < E_; ++i) {
-    gps_[static_cast<std::size_t>(i)].predict_batch(in, sample_weights_[static_cast<std::size_t>(i)],
-                                                    sample, m, v);
+    gps_[static_cast<std::size_t>(i)].predict_batch(
+        in, sample_weights_[static_cast<std::size_t>(i)], sample, m, v);
     mean.col(i) += m;
     var.col(i) = v;
   }
@@ -327,7 +383,10 @@ void GpDynamicsModel::predict_batch(const MatrixXd& X, const MatrixXd& U, Matrix
     mean.setZero(B, E_);
   var.resize(B, E_);
   for (int i = 0; i < E_; ++i) {
-    gps_[static_cast<std::size_t>(i)].predict_batch(in, m, v);
+    if (sparse_active_)
+      sparse_[static_cast<std::size_t>(i)].predict_batch(in, m, v);
+    else
+      gps_[static_cast<std::size_t>(i)].predict_batch(in, m, v);
     mean.col(i) += m;
     var.col(i) = v;
   }

@@ -23,6 +23,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
+#include "drops/gp/sparse_gp.hpp"
 #include "drops/opt/subplex.hpp"
 
 namespace drops::model {
@@ -39,6 +40,45 @@ bool residuals(const MeanFunction& prior, const Dataset& d, const VectorXd& phi,
   out = d.dx - prior_outputs(prior, d.x, d.u, phi, &bad);
   *nonfinite += bad;
   return bad == 0;
+}
+
+/// A GP without data like `proto` (its options), default hyper-parameters.
+gp::Gp fresh_like(const gp::Gp& /*proto*/, int input_dim) { return gp::Gp(input_dim); }
+gp::SparseGp fresh_like(const gp::SparseGp& proto, int input_dim) {
+  return gp::SparseGp(input_dim, proto.options());
+}
+
+/// Refits one output GP on (in, t) from its current hyper-parameters; returns Rprop's iterations.
+/// A sparse GP chooses its inducing inputs for the current kernel, is fitted with them, and then
+/// chooses them again for the fitted kernel (its bound is evaluated with those).
+int refit(gp::Gp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
+          const gp::RpropOptions& rprop) {
+  g.compute(in, t);
+  return g.optimize_h_params(rprop).iterations;
+}
+int refit(gp::SparseGp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
+          const gp::RpropOptions& rprop) {
+  const VectorXd y = t;
+  g.compute(in, y);
+  const int its = g.optimize_h_params(rprop).iterations;
+  g.compute(in, y);
+  return its;
+}
+
+template <class G>
+VectorXd fit_output_gps_impl(std::vector<G>& gps, const MatrixXd& in, const MatrixXd& targets,
+                             const gp::RpropOptions& rprop, long* iterations) {
+  check_size("fit_output_gps: target columns vs GPs", static_cast<long>(gps.size()), targets.cols());
+  const auto E = static_cast<Eigen::Index>(gps.size());
+  VectorXd ll(E);
+  std::vector<int> its(gps.size(), 0);
+  parallel_for(gps.size(), [&](std::size_t i) {
+    auto& g = gps[i];
+    its[i] = refit(g, in, targets.col(static_cast<Eigen::Index>(i)), rprop);
+    ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
+  });
+  for (int k : its) *iterations += k;
+  return ll;
 }
 
 /// The outer loop: Subplex over the tunable entries of phi (discrete ones exhaustively) from
@@ -66,9 +106,10 @@ opt::SubplexSummary search_phi(const MeanFunction& prior, const PriorParameters&
 /// The paper's nesting: each evaluation of S(phi) refits every output's kernel with Rprop at the
 /// residuals of phi, warm-started from the best kernels so far or from a new GP's kernels
 /// (options.candidate_start). On return gps hold the kernels of the best phi.
+template <class G>
 GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& parameters,
                           const Dataset& d, const GpMiOptions& options,
-                          const gp::RpropOptions& inner, std::vector<gp::Gp>& gps,
+                          const gp::RpropOptions& inner, std::vector<G>& gps,
                           const ModelProgress& progress) {
   GpMiSummary s;
   const std::size_t E = gps.size();
@@ -89,12 +130,12 @@ GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& para
     if (!residuals(prior, d, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
     VectorXd ll(static_cast<Eigen::Index>(E));
     parallel_for(E, [&](std::size_t i) {  // inner loop: Rprop per output GP
-      gp::Gp g(static_cast<int>(d.gp_in.cols()));
+      G g = fresh_like(gps[i], static_cast<int>(d.gp_in.cols()));
       g.set_h_params(from_initial ? initial_h : best_h[i]);
       gp::RpropState* state = states.empty() ? nullptr : &states[i];
       const int before = state != nullptr ? state->iterations : 0;
       try {
-        g.compute(d.gp_in, t.col(static_cast<Eigen::Index>(i)));
+        g.compute(d.gp_in, VectorXd(t.col(static_cast<Eigen::Index>(i))));
         rprop_its += g.optimize_h_params(rprop, state).iterations - before;
         ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
         h[i] = g.h_params();
@@ -161,9 +202,10 @@ GpMiSummary nested_search(const MeanFunction& prior, const PriorParameters& para
 /// with the kernels fixed (each evaluation re-solves with the factorisations kept), until phi
 /// moves by less than 1e-3 of its interval or `rounds` rounds. On return gps hold the kernels of
 /// the last round.
+template <class G>
 GpMiSummary alternating_search(const MeanFunction& prior, const PriorParameters& parameters,
                                const Dataset& d, const GpMiOptions& options,
-                               const gp::RpropOptions& inner, std::vector<gp::Gp>& gps,
+                               const gp::RpropOptions& inner, std::vector<G>& gps,
                                const ModelProgress& progress) {
   GpMiSummary s;
   s.phi = parameters.values;
@@ -173,7 +215,7 @@ GpMiSummary alternating_search(const MeanFunction& prior, const PriorParameters&
     MatrixXd targets;
     if (!residuals(prior, d, s.phi, targets, &s.nonfinite_prior_outputs))
       break;  // keep phi; the caller's final fit reports the error
-    fit_output_gps(gps, d.gp_in, targets, inner, &s.rprop_iterations);
+    fit_output_gps_impl(gps, d.gp_in, targets, inner, &s.rprop_iterations);
     // (b) phi with the kernels fixed.
     PriorParameters p = parameters;
     p.values = s.phi;
@@ -245,24 +287,21 @@ double gp_mi_score(const VectorXd& ll, GpMiScore score) {
 
 VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
                         const gp::RpropOptions& rprop, long* iterations) {
-  check_size("fit_output_gps: target columns vs GPs", static_cast<long>(gps.size()), targets.cols());
-  const auto E = static_cast<Eigen::Index>(gps.size());
-  VectorXd ll(E);
-  std::vector<int> its(gps.size(), 0);
-  parallel_for(gps.size(), [&](std::size_t i) {
-    auto& g = gps[i];
-    g.compute(in, targets.col(static_cast<Eigen::Index>(i)));
-    its[i] = g.optimize_h_params(rprop).iterations;
-    ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
-  });
-  for (int k : its) *iterations += k;
-  return ll;
+  return fit_output_gps_impl(gps, in, targets, rprop, iterations);
 }
 
-GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
-                         const Dataset& data, const GpMiOptions& options,
-                         const gp::RpropOptions& rprop, std::vector<gp::Gp>& gps,
-                         const ModelProgress& progress) {
+VectorXd fit_output_gps(std::vector<gp::SparseGp>& gps, const MatrixXd& in,
+                        const MatrixXd& targets, const gp::RpropOptions& rprop, long* iterations) {
+  return fit_output_gps_impl(gps, in, targets, rprop, iterations);
+}
+
+namespace {
+
+template <class G>
+GpMiSummary identify_phi_impl(const MeanFunction& prior, const PriorParameters& parameters,
+                              const Dataset& data, const GpMiOptions& options,
+                              const gp::RpropOptions& rprop, std::vector<G>& gps,
+                              const ModelProgress& progress) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument("identify_phi: " + why);
   parameters.check();
@@ -281,6 +320,22 @@ GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& param
   if (options.search == GpMiSearch::kAlternating && !all_discrete)
     return alternating_search(prior, parameters, d, options, inner, gps, progress);
   return nested_search(prior, parameters, d, options, inner, gps, progress);
+}
+
+}  // namespace
+
+GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
+                         const Dataset& data, const GpMiOptions& options,
+                         const gp::RpropOptions& rprop, std::vector<gp::Gp>& gps,
+                         const ModelProgress& progress) {
+  return identify_phi_impl(prior, parameters, data, options, rprop, gps, progress);
+}
+
+GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
+                         const Dataset& data, const GpMiOptions& options,
+                         const gp::RpropOptions& rprop, std::vector<gp::SparseGp>& gps,
+                         const ModelProgress& progress) {
+  return identify_phi_impl(prior, parameters, data, options, rprop, gps, progress);
 }
 
 VectorXd PhiPosterior::stddev() const { return covariance.diagonal().cwiseSqrt(); }
@@ -322,7 +377,8 @@ constexpr double kLogHStep = 1e-3;
 /// over Rprop's box as a Gaussian of its variance (P_h = 12 / width^2 per component), its
 /// eigenvalues floored at the smallest of those precisions. NaN entries when a factorisation or
 /// a gradient fails.
-MatrixXd kernel_absorption(const gp::Gp& fitted, Eigen::Index out, const MatrixXd& at_phi,
+template <class G>
+MatrixXd kernel_absorption(const G& fitted, Eigen::Index out, const MatrixXd& at_phi,
                            const std::vector<MatrixXd>& up, const std::vector<MatrixXd>& down,
                            const std::vector<double>& step) {
   const auto K = static_cast<Eigen::Index>(up.size());
@@ -339,7 +395,7 @@ MatrixXd kernel_absorption(const gp::Gp& fitted, Eigen::Index out, const MatrixX
   MatrixXd absorbed = MatrixXd::Zero(K, K);
   if (F == 0) return absorbed;
   try {
-    gp::Gp g = fitted;
+    G g = fitted;
     MatrixXd C(K, F);
     for (Eigen::Index a = 0; a < K; ++a) {
       g.set_targets(up[static_cast<std::size_t>(a)].col(out));
@@ -380,11 +436,11 @@ MatrixXd kernel_absorption(const gp::Gp& fitted, Eigen::Index out, const MatrixX
   return absorbed;
 }
 
-}  // namespace
 
-PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
-                           const Dataset& data, const std::vector<gp::Gp>& gps,
-                           PhiPosteriorKernels kernels) {
+template <class G>
+PhiPosterior phi_posterior_impl(const MeanFunction& prior, const PriorParameters& parameters,
+                                const Dataset& data, const std::vector<G>& gps,
+                                PhiPosteriorKernels kernels) {
   PhiPosterior post;
   std::vector<int> at;  // indices into phi of the continuous tunable parameters
   std::vector<double> step;
@@ -410,7 +466,7 @@ PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& par
   for (Eigen::Index a = 0; a < K; ++a) post.mean[a] = parameters.values[at[static_cast<std::size_t>(a)]];
   post.covariance = MatrixXd::Constant(K, K, kNaN);
   if (K == 0) return post;
-  std::vector<gp::Gp> g = gps;
+  std::vector<G> g = gps;
   const auto E = static_cast<Eigen::Index>(g.size());
   // The residual targets at phi* + sum_a d_a step_a e_a (N x E) in *t; false when the prior
   // rejects that phi or returns a non-finite output.
@@ -487,6 +543,20 @@ PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& par
   post.covariance =
       eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
   return post;
+}
+
+}  // namespace
+
+PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
+                           const Dataset& data, const std::vector<gp::Gp>& gps,
+                           PhiPosteriorKernels kernels) {
+  return phi_posterior_impl(prior, parameters, data, gps, kernels);
+}
+
+PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
+                           const Dataset& data, const std::vector<gp::SparseGp>& gps,
+                           PhiPosteriorKernels kernels) {
+  return phi_posterior_impl(prior, parameters, data, gps, kernels);
 }
 
 }  // namespace drops::model

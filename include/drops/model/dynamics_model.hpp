@@ -56,6 +56,17 @@ struct ModelOptions {
   /// to choose and O(E N^3 / 3) to refactorise the GPs on the new row order. Means use every
   /// transition. 0 = every transition (exact). >= 0.
   int variance_points = 0;
+  /// Output GPs (gp, gp_prior, gp_mi): once learn() has more than m = inducing_points GP points
+  /// (recorded transitions, and their reflections with reflect_transitions), each output GP is
+  /// a sparse GP with at most m inducing inputs (gp::SparseGp: the variational bound of Titsias
+  /// 2009, inputs chosen among the transitions by greedy conditional variance for the kernel,
+  /// again after its fit), fitted in O(N m^2) per Rprop iteration instead of O(N^3); predictions
+  /// cost O(m^2) (variance_points is then not used). GP-MI's phi search uses sparse GPs too when
+  /// the transitions it scores (gp_mi.max_points of them, or all) exceed m. The state carried
+  /// between learn() calls is the same hyper-parameters as the exact GPs' (the inducing inputs
+  /// are chosen again from the data at each learn()), so a resumed run is exact. 0 = exact GPs
+  /// whatever N. >= 0; not with gp_mi.rollout_phi = posterior.
+  int inducing_points = 0;
   /// Output GPs (gp, gp_prior, gp_mi): learn() also learns each recorded transition reflected by
   /// the task's symmetry (Task::reflection; data augmentation), so the model knows the mirror
   /// image of every state the robot visited: 2N transitions for N recorded, and the GP-MI search

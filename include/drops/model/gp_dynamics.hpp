@@ -56,8 +56,13 @@ class GpDynamicsModel final : public DynamicsModel {
                              MatrixXd& mean, MatrixXd& var) const override;
   /// The phi of each sample drawn (full phi, dim P each).
   const std::vector<VectorXd>& sample_phis() const { return sample_phi_; }
-  /// The E output GPs (after learn(): fitted to the residuals at phi()).
+  /// The E output GPs (after learn(): fitted to the residuals at phi()), when the model is exact
+  /// (sparse() false); without data otherwise.
   const std::vector<gp::Gp>& output_gps() const { return gps_; }
+  /// True when the last learn() fitted sparse output GPs (ModelOptions::inducing_points).
+  bool sparse() const { return sparse_active_; }
+  /// The E sparse output GPs, fitted by the last learn() when sparse(); without data otherwise.
+  const std::vector<gp::SparseGp>& sparse_output_gps() const { return sparse_; }
 
  private:
   ModelOptions options_;
@@ -68,6 +73,12 @@ class GpDynamicsModel final : public DynamicsModel {
   VectorXd phi_;
   std::optional<Reflection> reflection_;  // set when options_.reflect_transitions
   std::vector<gp::Gp> gps_;
+  // ModelOptions::inducing_points: the sparse output GPs, and which of the two sets holds the
+  // fitted GPs (the other holds the same hyper-parameters, without data: the warm start).
+  std::vector<gp::SparseGp> sparse_;
+  bool sparse_active_ = false;
+  // Makes the exact (false) or sparse (true) set the active one, carrying the hyper-parameters.
+  void activate(bool sparse);
   // The last learn()'s data and posterior (draw_phi_samples), and the samples drawn.
   MatrixXd data_x_, data_u_, data_dx_;
   PhiPosterior posterior_;

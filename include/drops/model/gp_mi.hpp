@@ -12,6 +12,7 @@
 
 #include "drops/core/types.hpp"
 #include "drops/gp/gp.hpp"
+#include "drops/gp/sparse_gp.hpp"
 #include "drops/model/dataset.hpp"
 #include "drops/model/mean_function.hpp"
 
@@ -190,6 +191,11 @@ struct PhiPosterior {
 PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
                            const Dataset& data, const std::vector<gp::Gp>& gps,
                            PhiPosteriorKernels kernels = PhiPosteriorKernels::kMarginalised);
+/// The same with sparse output GPs (ModelOptions::inducing_points): L is the sum of their
+/// variational bounds (gp::SparseGp, inducing inputs held fixed), each gradient O(N M^2 + M^3).
+PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
+                           const Dataset& data, const std::vector<gp::SparseGp>& gps,
+                           PhiPosteriorKernels kernels = PhiPosteriorKernels::kMarginalised);
 
 /// log sum_i exp(v_i), computed stably (max shift). Returns -inf for an empty or all -inf vector.
 /// Thread-safe.
@@ -205,6 +211,12 @@ double gp_mi_score(const VectorXd& ll, GpMiScore score);
 /// the Rprop iterations to *iterations. Throws NumericalError from a failing factorisation.
 VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
                         const gp::RpropOptions& rprop, long* iterations);
+/// The same with sparse output GPs: each chooses its inducing inputs among the rows of `in` for
+/// its current kernel (gp::SparseGp::compute), is fitted with Rprop on its bound, then chooses
+/// them again for the fitted kernel; the bounds returned are with those. O(E N M^2) per Rprop
+/// iteration instead of O(E N^3).
+VectorXd fit_output_gps(std::vector<gp::SparseGp>& gps, const MatrixXd& in,
+                        const MatrixXd& targets, const gp::RpropOptions& rprop, long* iterations);
 
 /// Paper Algorithm 2: phi* = argmax_phi S(phi) over parameters.tunable within their bounds
 /// (discrete choices exhaustively), starting from parameters.values, by options.search.
@@ -220,6 +232,14 @@ VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const Matr
 GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
                          const Dataset& data, const GpMiOptions& options,
                          const gp::RpropOptions& rprop, std::vector<gp::Gp>& gps,
+                         const ModelProgress& progress = nullptr);
+/// The same search on sparse output GPs (gp::SparseGp, ModelOptions::inducing_points): S(phi)
+/// from their variational bounds. The alternating search refits them (fit_output_gps) once per
+/// round, then scores each phi in O(E N M) with the kernels and inducing inputs fixed; the nested
+/// search chooses the inducing inputs again for every candidate's fit.
+GpMiSummary identify_phi(const MeanFunction& prior, const PriorParameters& parameters,
+                         const Dataset& data, const GpMiOptions& options,
+                         const gp::RpropOptions& rprop, std::vector<gp::SparseGp>& gps,
                          const ModelProgress& progress = nullptr);
 
 }  // namespace drops::model
