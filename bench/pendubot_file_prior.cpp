@@ -2,10 +2,14 @@
 // drops::description, MuJoCo) against its hand-written prior (pendubot::PendubotPrior): prior
 // evaluations per second, one state per call and batches of 100, as a run calls them (through
 // the task's joint mapping). Prints a Markdown table for docs/benchmarks.md. CPU time of this
-// thread (std::clock), so that other processes on the machine weigh less.
+// thread (std::clock), so that other processes on the machine weigh less. Then the file prior's
+// integration error against its substeps per control period (the task's dt = 0.05 s; the
+// hand-written prior and the plant use 5 RK4 substeps of 10 ms), against 200 substeps as the
+// reference, over random states and torques.
 // Usage: pendubot_file_prior [seconds per measurement, default 2]
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <ctime>
 #include <random>
@@ -44,6 +48,35 @@ double rate(const model::MeanFunction& prior, const VectorXd& phi, int B, double
   return evaluations / used;
 }
 
+// The largest |dx - dx_ref| over 200 random joint states and torques (angles rad, velocities
+// rad/s) of the file prior with `substeps` RK4 substeps per control period against 200.
+std::pair<double, double> substep_error(const experiment::Experiment& file, int substeps) {
+  description::DescriptionPriorOptions o;
+  o.file = std::string(DROPS_SOURCE_DIR) + "/tasks/pendubot/data/pendubot.xml";
+  o.joints = {"Joint1", "Joint2"};
+  o.actuated = {"Joint1"};
+  o.parameters = file.setup.prior_parameters.names;
+  o.dt = 0.05;
+  o.substeps = substeps;
+  const description::DescriptionPrior coarse(o);
+  o.substeps = 200;
+  const description::DescriptionPrior fine(o);
+  const VectorXd& phi = file.setup.prior_parameters.values;
+  std::mt19937 gen(2);
+  std::uniform_real_distribution<double> a(-4, 4), v(-10, 10), u(-3.5, 3.5);
+  double ea = 0, ev = 0;
+  VectorXd x(4), uu(1), d1(4), d2(4);
+  for (int k = 0; k < 200; ++k) {
+    x << a(gen), a(gen), v(gen), v(gen);
+    uu << u(gen);
+    coarse.evaluate(x, uu, phi, d1);
+    fine.evaluate(x, uu, phi, d2);
+    ea = std::max(ea, (d1 - d2).head(2).cwiseAbs().maxCoeff());
+    ev = std::max(ev, (d1 - d2).tail(2).cwiseAbs().maxCoeff());
+  }
+  return {ea, ev};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -65,5 +98,12 @@ int main(int argc, char** argv) {
                  e == &hand ? "hand-written (PendubotPrior)" : "file (pendubot.xml, MuJoCo)", B,
                  r, 1e6 / r);
     }
+  }
+  fmt::print(
+      "\n| substeps per 0.05 s | max abs error, angles (rad) | max abs error, velocities (rad/s) "
+      "|\n|---|---|---|\n");
+  for (const int k : {1, 2, 5, 10, 20}) {
+    const auto [ea, ev] = substep_error(file, k);
+    fmt::print("| {} | {:.1e} | {:.1e} |\n", k, ea, ev);
   }
 }

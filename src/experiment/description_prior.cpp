@@ -308,7 +308,10 @@ JointMappedPrior::JointMappedPrior(std::shared_ptr<const model::MeanFunction> in
 
 void JointMappedPrior::evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
                                 Eigen::Ref<VectorXd> dx) const {
-  MatrixXd X = x.transpose(), U = u.transpose(), dX;
+  // Per-thread buffers: a run calls this at every step (resized, not reallocated).
+  thread_local MatrixXd X, U, dX;
+  X = x.transpose();
+  U = u.transpose();
   evaluate_batch(X, U, phi, dX);
   dx = dX.row(0).transpose();
 }
@@ -319,9 +322,13 @@ void JointMappedPrior::evaluate_batch(const MatrixXd& X, const MatrixXd& U, cons
   check_size("joint-mapped prior: U's columns", inner_->action_dim(), U.cols());
   const MatrixXd* Xq = &X;
   const MatrixXd* Uq = &U;
-  MatrixXd Xj, Uc, dXj;
+  // Per-thread buffers (a run calls this at every step of every rollout); the inner prior does
+  // not call back into a JointMappedPrior, so they are never in use twice on one thread.
+  thread_local MatrixXd Xj, Uc, dXj;
   if (to_joints_t_.size() != 0) {
-    Xj.noalias() = X * to_joints_t_;
+    // Coefficient-wise products: the mapping is 2n x 2n (n: a robot's joints); a BLAS call
+    // (EIGEN_USE_BLAS) costs microseconds per call on one state, more than the product.
+    Xj.noalias() = X.lazyProduct(to_joints_t_);
     Xq = &Xj;
   }
   if (limit_.size() != 0) {
@@ -335,7 +342,7 @@ void JointMappedPrior::evaluate_batch(const MatrixXd& X, const MatrixXd& U, cons
     return;
   }
   inner_->evaluate_batch(*Xq, *Uq, phi, dXj);
-  dX.noalias() = dXj * from_joints_t_;
+  dX.noalias() = dXj.lazyProduct(from_joints_t_);
 }
 
 std::unique_ptr<model::MeanFunction> JointMappedPrior::clone() const {

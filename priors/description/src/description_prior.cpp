@@ -249,6 +249,10 @@ struct PriorModel {
   VectorXd defaults;
   std::vector<std::string> warnings;
   std::array<double, 3> gravity_direction{0, 0, -1};
+  // No constraint can arise (no equality constraint, no limited tendon, no tendon friction loss;
+  // joint limits, dof friction loss and contacts are off): a stage runs only the smooth pipeline
+  // (stage_smooth) instead of the whole mj_forward.
+  bool smooth_only = false;
   ~PriorModel() {
     if (model) mj_deleteModel(model);
   }
@@ -262,6 +266,9 @@ struct Workspace {
   std::vector<double> tau;             // per dof: the driven joints' torques, gear applied
   // RK4 scratch: the state (q, v), a stage's (qs, vs), the four stages' derivatives (4 n each).
   std::vector<double> q, v, qs, vs, kq, kv;
+  // The phi last written into m (valid when phi_written): a call with the same phi writes none.
+  VectorXd phi;
+  bool phi_written = false;
   explicit Workspace(const PriorModel& l) {
     m = mj_copyModel(nullptr, l.model);
     d = m ? mj_makeData(m) : nullptr;
@@ -402,6 +409,9 @@ DescriptionPrior::DescriptionPrior(const DescriptionPriorOptions& options) {
   }
   for (int j = 0; j < m->njnt; ++j) m->jnt_limited[j] = 0;
   m->opt.disableflags |= mjDSBL_CONTACT | mjDSBL_ACTUATION;
+  l->smooth_only = m->neq == 0;
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_limited[t] || m->tendon_frictionloss[t] > 0) l->smooth_only = false;
   const double g =
       std::sqrt(m->opt.gravity[0] * m->opt.gravity[0] + m->opt.gravity[1] * m->opt.gravity[1] +
                 m->opt.gravity[2] * m->opt.gravity[2]);
@@ -650,30 +660,116 @@ void write_phi_impl(const mjModel* file, const std::vector<Param>& params,
   }
 }
 
-// qdd at (ws.q, ws.v) into ws.acc: the driven joints' torques in ws.tau (per dof, gear applied),
-// the smooth Coulomb friction added here.
-void forward(const std::vector<int>& qpos, const std::vector<int>& dof, double vs, Workspace& w,
-             const double* q, const double* v, double* acc) {
+// Writes phi into w's model unless w holds that phi already (a run calls with the same phi for
+// many calls in a row: GP-MI changes phi once per policy evaluation at most).
+void write_phi(const PriorModel& l, Workspace& w, const VectorXd& phi) {
+  if (w.phi_written && w.phi.size() == phi.size() && w.phi == phi) return;
+  w.phi_written = false;  // until written in full
+  write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
+  w.phi = phi;
+  w.phi_written = true;
+}
+
+// The driven joints' torques of u (u[a * stride], a < m) into w.tau (per dof, gear applied).
+void set_torques(const PriorModel& l, Workspace& w, const double* u, Eigen::Index stride) {
+  std::fill(w.tau.begin(), w.tau.end(), 0.0);
+  for (size_t a = 0; a < l.actuated_dof.size(); ++a) {
+    const int d = l.actuated_dof[a];
+    w.tau[d] = w.gear[d] * u[static_cast<Eigen::Index>(a) * stride];
+  }
+}
+
+// qdd at (q, v) (dim n each) into acc (dim n): the driven joints' torques in w.tau (per dof,
+// gear applied), the smooth Coulomb friction added here. When no constraint can arise
+// (l.smooth_only), only the pieces of mj_forward that the smooth dynamics need run: position
+// (mj_kinematics, mj_comPos, mj_tendon, mj_crb with the armature, mj_factorM), velocity
+// (mj_fwdVelocity: tendon velocities, mj_comVel, mj_passive with damping and springs, mj_rne for
+// the bias c + g), then qacc = M^-1 (qfrc_passive - qfrc_bias + qfrc_applied) as
+// mj_fwdAcceleration sums it (its actuator and body-force terms are zero here: actuation off,
+// xfrc_applied never set), and mj_fwdConstraint's copy with no constraint. Skipped: sensors,
+// energy, cameras and lights, collision (contacts off), constraint assembly and projection,
+// actuator transmission and forces. The same floating-point operations as mj_forward on such a
+// model, so the same qacc bit for bit (MuJoCo 2.2.2).
+void forward(const PriorModel& l, Workspace& w, const double* q, const double* v, double* acc) {
   mjModel* m = w.m;
   mjData* d = w.d;
-  const size_t n = dof.size();
+  const size_t n = l.dof.size();
   for (size_t i = 0; i < n; ++i) {
-    d->qpos[qpos[i]] = q[i];
-    d->qvel[dof[i]] = v[i];
+    d->qpos[l.qpos[i]] = q[i];
+    d->qvel[l.dof[i]] = v[i];
   }
+  const double vs = l.options.coulomb_velocity;
   for (int k = 0; k < m->nv; ++k)
-    d->qfrc_applied[k] = w.tau[k] - w.friction[k] * std::tanh(d->qvel[k] / vs);
-  mj_forward(m, d);
-  for (size_t i = 0; i < n; ++i) acc[i] = d->qacc[dof[i]];
+    d->qfrc_applied[k] =
+        w.friction[k] == 0 ? w.tau[k] : w.tau[k] - w.friction[k] * std::tanh(d->qvel[k] / vs);
+  if (l.smooth_only) {
+    mj_kinematics(m, d);
+    mj_comPos(m, d);
+    if (m->ntendon) mj_tendon(m, d);
+    mj_crb(m, d);
+    mj_factorM(m, d);
+    mj_fwdVelocity(m, d);
+    for (int k = 0; k < m->nv; ++k)
+      d->qfrc_smooth[k] = d->qfrc_passive[k] - d->qfrc_bias[k] + d->qfrc_applied[k];
+    mj_solveM(m, d, d->qacc, d->qfrc_smooth, 1);
+  } else {
+    mj_forward(m, d);
+  }
+  for (size_t i = 0; i < n; ++i) acc[i] = d->qacc[l.dof[i]];
+}
+
+// One control period from (w.q, w.v) under w.tau, in place: `substeps` steps of classical RK4.
+void integrate(const PriorModel& l, Workspace& w) {
+  const int n = static_cast<int>(l.dof.size());
+  const double h = l.options.dt / l.options.substeps;
+  auto &kq = w.kq, &kv = w.kv, &qs = w.qs, &vs = w.vs;
+  for (int s = 0; s < l.options.substeps; ++s) {
+    // Classical RK4 on (q, v): stage c at (q + a_c h kq_{c-1}, v + a_c h kv_{c-1}).
+    for (int c = 0; c < 4; ++c) {
+      const double a = c == 0 ? 0.0 : (c == 3 ? h : 0.5 * h);
+      for (int i = 0; i < n; ++i) {
+        qs[i] = w.q[i] + (c ? a * kq[(c - 1) * n + i] : 0.0);
+        vs[i] = w.v[i] + (c ? a * kv[(c - 1) * n + i] : 0.0);
+        kq[c * n + i] = vs[i];
+      }
+      forward(l, w, qs.data(), vs.data(), &kv[c * n]);
+    }
+    for (int i = 0; i < n; ++i) {
+      w.q[i] += h / 6 * (kq[i] + 2 * kq[n + i] + 2 * kq[2 * n + i] + kq[3 * n + i]);
+      w.v[i] += h / 6 * (kv[i] + 2 * kv[n + i] + 2 * kv[2 * n + i] + kv[3 * n + i]);
+    }
+  }
 }
 
 }  // namespace
 
 void DescriptionPrior::evaluate(const VectorXd& x, const VectorXd& u, const VectorXd& phi,
                                 Eigen::Ref<VectorXd> dx) const {
-  MatrixXd X = x.transpose(), U = u.transpose(), dX;
-  evaluate_batch(X, U, phi, dX);
-  dx = dX.row(0).transpose();
+  // One state: no matrices (evaluate_batch's work on a single row, without its allocations).
+  const auto& l = *loaded_;
+  const int n = static_cast<int>(l.dof.size());
+  check_size("description prior: x (2 x the joints)", 2 * n, x.size());
+  check_size("description prior: u (the driven joints)", static_cast<long>(l.actuated_dof.size()),
+             u.size());
+  check_size("description prior: phi", static_cast<long>(l.params.size()), phi.size());
+  check_size("description prior: dx (2 x the joints)", 2 * n, dx.size());
+  try {
+    auto lease = pool_->lease();
+    Workspace& w = *lease.ws;
+    write_phi(l, w, phi);
+    set_torques(l, w, u.data(), 1);
+    for (int i = 0; i < n; ++i) {
+      w.q[i] = x[i];
+      w.v[i] = x[n + i];
+    }
+    integrate(l, w);
+    for (int i = 0; i < n; ++i) {
+      dx[i] = w.q[i] - x[i];
+      dx[n + i] = w.v[i] - x[n + i];
+    }
+  } catch (const EngineError& e) {
+    throw NumericalError(l.where() + ": MuJoCo: " + e.what());
+  }
 }
 
 void DescriptionPrior::evaluate_batch(const MatrixXd& X, const MatrixXd& U, const VectorXd& phi,
@@ -698,36 +794,15 @@ void DescriptionPrior::evaluate_rows(const MatrixXd& X, const MatrixXd& U, const
   const int n = static_cast<int>(l.dof.size());
   auto lease = pool_->lease();
   Workspace& w = *lease.ws;
-  write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
-  const double h = l.options.dt / l.options.substeps, v_s = l.options.coulomb_velocity;
+  write_phi(l, w, phi);
   dX.resize(X.rows(), 2 * n);
-  auto &kq = w.kq, &kv = w.kv, &qs = w.qs, &vs = w.vs;
   for (Eigen::Index b = 0; b < X.rows(); ++b) {
-    std::fill(w.tau.begin(), w.tau.end(), 0.0);
-    for (size_t a = 0; a < l.actuated_dof.size(); ++a) {
-      const int d = l.actuated_dof[a];
-      w.tau[d] = w.gear[d] * U(b, static_cast<Eigen::Index>(a));
-    }
+    set_torques(l, w, U.data() + b, U.rows());  // row b of the column-major U
     for (int i = 0; i < n; ++i) {
       w.q[i] = X(b, i);
       w.v[i] = X(b, n + i);
     }
-    for (int s = 0; s < l.options.substeps; ++s) {
-      // Classical RK4 on (q, v): stage c at (q + a_c h kq_{c-1}, v + a_c h kv_{c-1}).
-      for (int c = 0; c < 4; ++c) {
-        const double a = c == 0 ? 0.0 : (c == 3 ? h : 0.5 * h);
-        for (int i = 0; i < n; ++i) {
-          qs[i] = w.q[i] + (c ? a * kq[(c - 1) * n + i] : 0.0);
-          vs[i] = w.v[i] + (c ? a * kv[(c - 1) * n + i] : 0.0);
-          kq[c * n + i] = vs[i];
-        }
-        forward(l.qpos, l.dof, v_s, w, qs.data(), vs.data(), &kv[c * n]);
-      }
-      for (int i = 0; i < n; ++i) {
-        w.q[i] += h / 6 * (kq[i] + 2 * kq[n + i] + 2 * kq[2 * n + i] + kq[3 * n + i]);
-        w.v[i] += h / 6 * (kv[i] + 2 * kv[n + i] + 2 * kv[2 * n + i] + kv[3 * n + i]);
-      }
-    }
+    integrate(l, w);
     for (int i = 0; i < n; ++i) {
       dX(b, i) = w.q[i] - X(b, i);
       dX(b, n + i) = w.v[i] - X(b, n + i);
@@ -747,11 +822,9 @@ VectorXd DescriptionPrior::joint_accelerations(const VectorXd& x, const VectorXd
   try {
     auto lease = pool_->lease();
     Workspace& w = *lease.ws;
-    write_phi_impl(l.model, l.params, l.gravity_direction, w.m, w.friction, w.gear, phi);
-    std::fill(w.tau.begin(), w.tau.end(), 0.0);
-    for (size_t a = 0; a < l.actuated_dof.size(); ++a)
-      w.tau[l.actuated_dof[a]] = w.gear[l.actuated_dof[a]] * u[static_cast<Eigen::Index>(a)];
-    forward(l.qpos, l.dof, l.options.coulomb_velocity, w, x.data(), x.data() + n, acc.data());
+    write_phi(l, w, phi);
+    set_torques(l, w, u.data(), 1);
+    forward(l, w, x.data(), x.data() + n, acc.data());
   } catch (const EngineError& e) {
     throw NumericalError(l.where() + ": MuJoCo: " + e.what());
   }

@@ -14,9 +14,14 @@
 /// explicit in mj_forward.
 ///
 /// Integration: one control period dt is `substeps` steps of classical RK4 of h = dt / substeps,
-/// each stage's accelerations from mj_forward (4 per substep), u held over the period. Defaults:
-/// dt = 0.01 s, 10 substeps of 1 ms (the engine study measured 35-61 us per such period on the
-/// double pendulum, and agreement with the analytic model to 2e-12 rad over 2 s).
+/// each stage's accelerations from MuJoCo's forward dynamics (4 per substep), u held over the
+/// period. A model where no constraint can arise (no equality constraint, no limited tendon and
+/// no tendon friction loss: the prior turns the rest off) runs only the smooth pieces of
+/// mj_forward per stage (kinematics, composite inertia and its factor, tendons, velocity terms,
+/// M^-1 times the forces: the same arithmetic, the same qacc), other models the whole
+/// mj_forward. Defaults: dt = 0.01 s, 10 substeps of 1 ms (the engine study measured 35-61 us
+/// per such period on the double pendulum with mj_forward, and agreement with the analytic
+/// model to 2e-12 rad over 2 s; docs/benchmarks.md, "Description-file prior", for the pendubot).
 
 #include <limits>
 #include <memory>
@@ -98,7 +103,8 @@ struct ParameterDomain {
 ///
 /// Thread safety: const calls (evaluate, evaluate_batch, joint_accelerations) may run
 /// concurrently on one instance: each call leases a workspace (its own mjModel copy, into which
-/// the call writes phi, and its own mjData) from the instance's pool, created on first need
+/// the call writes phi unless that workspace holds this phi already, and its own mjData) from
+/// the instance's pool, created on first need
 /// (mj_copyModel: microseconds; mj_makeData: about 0.1 ms and 13.5 MB of arena) and returned at
 /// the end of the call; the file's model itself is shared and never written. clone() gives an
 /// independent instance with its own pool and one workspace.
@@ -157,7 +163,8 @@ class DescriptionPrior : public model::MeanFunction {
   /// nothing: the caller shows them (the Python class as a warnings.warn).
   const std::vector<std::string>& warnings() const;
   /// Joint accelerations qdd (dim n, rad/s^2 or m/s^2) at x (dim 2n) under u (dim m) and phi
-  /// (dim P, assumed checked): one mj_forward, the friction and gear applied. Thread-safe.
+  /// (dim P, assumed checked): one forward dynamics as a stage of evaluate, the friction and gear
+  /// applied. Thread-safe.
   VectorXd joint_accelerations(const VectorXd& x, const VectorXd& u, const VectorXd& phi) const;
   /// The state's joints (dim n), the driven joints (dim m), the model's bodies (the world
   /// excluded): names as in the file.
