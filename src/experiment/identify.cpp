@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -13,7 +15,11 @@
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/experiment/run_directory.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/experiment/registry.hpp"
 #include "drops/model/dataset.hpp"
+#include "drops/model/gp_dynamics.hpp"
+#include "drops/model/simulator_model.hpp"
 
 namespace drops::experiment {
 
@@ -671,6 +677,163 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     put("report.md", o.str());
   }
   return written;
+}
+
+}  // namespace drops::experiment
+
+// ---------------------------------------------------------------------------------------------
+
+namespace drops::experiment {
+
+IdentifyRun identify_from_settings(const Registry& registry, const Settings& settings,
+                                   const IdentifyMessage& message,
+                                   const model::ModelProgress& progress) {
+  const BaseOptions base = base_options(settings);
+  const std::string task_name = settings.at("task");
+  TaskSetup setup = registry.task(task_name).make(settings);
+  const ModelVariant& variant = registry.model_variant(base.model_type);
+  IdentifyModel what;
+  what.type = variant.name;
+  what.factory = variant.factory;
+  what.uses_prior = variant.uses_prior;
+  what.options = black_drops_options(registry, settings).model;
+  what.task = setup.task;
+  what.prior = setup.prior;
+  what.parameters = setup.prior_parameters;
+  std::vector<std::string> states = setup.state_names, actions = setup.action_names;
+  for (int i = static_cast<int>(states.size()); i < setup.task->state_dim(); ++i)
+    states.push_back("x_" + std::to_string(i + 1));
+  for (int i = static_cast<int>(actions.size()); i < setup.task->action_dim(); ++i)
+    actions.push_back("u_" + std::to_string(i + 1));
+  IdentifyRun run;
+  run.options = identify_options(settings, setup.task->dt(), states, actions);
+  const std::string name =
+      base.name.empty() ? fmt::format("identify-{}-{}", task_name, variant.name) : base.name;
+  if (!is_directory_name(name))
+    throw ConfigError("config key 'name' = '" + name + "' is not a directory name");
+  run.directory = std::filesystem::path(base.output) / name;
+  if (message)
+    message(fmt::format("task {}, model {}, dt {} s, {} fit and {} validation log(s)", task_name,
+                        variant.name, setup.task->dt(), run.options.logs.size(),
+                        run.options.validation.size()));
+  run.result = identify(what, run.options, message, progress);
+  run.files = write_identify_directory(run.directory, run.result, run.options,
+                                       to_yaml(registry, settings));
+  return run;
+}
+
+namespace {
+
+std::vector<double> split_numbers(const std::string& line, const std::string& where) {
+  std::vector<double> v;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(cell.c_str(), &end);
+    if (cell.empty() || end == cell.c_str() || *end != '\0' || !std::isfinite(x))
+      throw Error(where + ": '" + cell + "' is not a finite number");
+    v.push_back(x);
+  }
+  return v;
+}
+
+std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) throw Error(p.string() + ": cannot be read");
+  std::ostringstream o;
+  o << in.rdbuf();
+  return o.str();
+}
+
+}  // namespace
+
+std::unique_ptr<model::DynamicsModel> load_identified_model(const std::filesystem::path& dir,
+                                                            const IdentifyModel& what) {
+  const std::filesystem::path mj = dir / "model.json";
+  const std::string src = mj.string();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_text(mj));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(src + ": not JSON (" + e.what() + ")");
+  }
+  auto field = [&](const char* k) -> const nlohmann::json& {
+    if (!j.contains(k)) throw Error(src + ": no '" + std::string(k) + "'");
+    return j.at(k);
+  };
+  try {
+    if (field("format").get<std::string>() != "drops-identified-model-1")
+      throw Error(src + ": format '" + field("format").get<std::string>() +
+                  "', expected 'drops-identified-model-1'");
+    if (field("type").get<std::string>() != what.type)
+      throw Error(src + ": a '" + field("type").get<std::string>() +
+                  "' model; the model described is '" + what.type + "'");
+    if (!what.task) throw InvalidArgument("load_identified_model: the model has no task");
+    const auto states = field("state_names").get<std::vector<std::string>>();
+    const auto actions = field("action_names").get<std::vector<std::string>>();
+    const int E = what.task->state_dim(), U = what.task->action_dim();
+    if (static_cast<int>(states.size()) != E || static_cast<int>(actions.size()) != U)
+      throw Error(fmt::format("{}: {} states and {} actions; the task has {} and {}", src,
+                              states.size(), actions.size(), E, U));
+    const double dt = field("dt").get<double>();
+    if (std::abs(dt - what.task->dt()) > 1e-12 * std::max(1.0, dt))
+      throw Error(fmt::format("{}: dt = {} s; the task's is {} s", src, dt, what.task->dt()));
+    model::ModelState st;
+    const auto phi = field("phi").get<std::vector<double>>();
+    st.phi = Eigen::Map<const VectorXd>(phi.data(), static_cast<Eigen::Index>(phi.size()));
+    for (const auto& h : field("h_params")) {
+      const auto v = h.get<std::vector<double>>();
+      st.h_params.push_back(
+          Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+    }
+    // data.csv: x (E), u (U), dx (E) per row, after a header of those names.
+    const std::filesystem::path dp = dir / field("data").get<std::string>();
+    std::stringstream text(read_text(dp));
+    std::string line;
+    std::getline(text, line);
+    std::vector<std::string> expected;
+    for (const auto& n : states) expected.push_back(n);
+    for (const auto& n : actions) expected.push_back(n);
+    for (const auto& n : states) expected.push_back("d_" + n);
+    if (line != fmt::format("{}", fmt::join(expected, ",")))
+      throw Error(fmt::format("{}: line 1 is '{}', expected '{}'", dp.string(), line,
+                              fmt::join(expected, ",")));
+    std::vector<Transition> data;
+    for (int row = 2; std::getline(text, line); ++row) {
+      if (line.empty()) continue;
+      const auto v = split_numbers(line, fmt::format("{}: line {}", dp.string(), row));
+      if (static_cast<int>(v.size()) != 2 * E + U)
+        throw Error(fmt::format("{}: line {} has {} values, expected {}", dp.string(), row,
+                                v.size(), 2 * E + U));
+      Transition t;
+      t.x = Eigen::Map<const VectorXd>(v.data(), E);
+      t.u = Eigen::Map<const VectorXd>(v.data() + E, U);
+      t.dx = Eigen::Map<const VectorXd>(v.data() + E + U, E);
+      data.push_back(std::move(t));
+    }
+    const bool uses_prior =
+        what.factory ? what.uses_prior : model::uses_prior(what.options.type);
+    std::shared_ptr<const model::MeanFunction> prior = uses_prior ? what.prior : nullptr;
+    const model::PriorParameters params =
+        uses_prior ? what.parameters : model::PriorParameters{};
+    std::unique_ptr<model::DynamicsModel> m =
+        what.factory ? what.factory(what.options, what.task, prior, params)
+                     : model::make_model(what.options, what.task, prior, params);
+    if (!m) throw InvalidArgument("load_identified_model: the model factory gave none");
+    m->restore(st);
+    if (auto* gp = dynamic_cast<model::GpDynamicsModel*>(m.get())) {
+      if (data.empty()) throw Error(dp.string() + ": no transitions");
+      gp->condition(data);
+    } else if (!dynamic_cast<model::SimulatorModel*>(m.get())) {
+      throw InvalidArgument("load_identified_model: a '" + what.type +
+                            "' model is neither a GP model nor the prior alone; it cannot be "
+                            "conditioned without learning");
+    }
+    return m;
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(src + ": " + e.what());
+  }
 }
 
 }  // namespace drops::experiment

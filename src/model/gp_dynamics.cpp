@@ -118,7 +118,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   // final fit, for the rollouts; not at each of the many refits of the phi search.
   for (auto& g : gps_) g.set_variance_points(0);
   // GP-MI (Algorithm 2): phi, warm-started from the previous episode's phi and kernels.
-  if (options_.type == ModelType::kGpMi && !params_.tunable.empty()) {
+  if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_) {
     const GpMiSummary mi = identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, gps_,
                                         progress);
     phi_ = mi.phi;
@@ -136,8 +136,18 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   if (!targets.allFinite())
     throw NumericalError("the simulator prior returned non-finite values at phi = [" +
                          format_phi(phi_) + "] on the recorded data");
-  s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
-  if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
+  if (condition_only_) {
+    s.log_likelihoods.resize(E_);
+    for (int i = 0; i < E_; ++i) {
+      auto& g = gps_[static_cast<std::size_t>(i)];
+      g.compute(d.gp_in, targets.col(i));
+      s.log_likelihoods[i] = g.log_marginal_likelihood();
+    }
+  } else {
+    s.log_likelihoods =
+        fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
+  }
+  if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_)
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
   // Variances from a subset (ModelOptions::variance_points), chosen on the fitted kernels
   // (gp::greedy_variance_subset): its rows go last, in order, after the others in order, and the
@@ -176,6 +186,18 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.phi = phi_;
   s.seconds = seconds_since(t0);
   return s;
+}
+
+ModelSummary GpDynamicsModel::condition(const std::vector<Transition>& data) {
+  condition_only_ = true;
+  try {
+    ModelSummary s = learn(data);
+    condition_only_ = false;
+    return s;
+  } catch (...) {
+    condition_only_ = false;
+    throw;
+  }
 }
 
 void GpDynamicsModel::clear_samples() {
