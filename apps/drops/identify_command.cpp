@@ -8,6 +8,7 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
+#include "figures.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/experiment/identify.hpp"
 
@@ -18,6 +19,7 @@ namespace {
 struct IdentifyArgs {
   std::vector<std::string> args;
   bool quiet = false;
+  bool no_figures = false;
 };
 
 int identify_main(const experiment::Registry& registry, const IdentifyArgs& a) {
@@ -36,6 +38,15 @@ int identify_main(const experiment::Registry& registry, const IdentifyArgs& a) {
       });
   const auto& result = run.result;
   const auto& dir = run.directory;
+  if (!a.no_figures) {
+    try {
+      plot_identify(dir);
+    } catch (const Error& e) {
+      throw Error(fmt::format("{} (the tables and the model are written in {}; --no-figures "
+                              "skips the figures)",
+                              e.what(), dir.string()));
+    }
+  }
   if (!a.quiet) std::cerr << result.summary.BriefReport();
   std::cout << dir.string() << "\n";
   return 0;
@@ -50,13 +61,16 @@ void add_identify_command(CLI::App& app, Action& action, const experiment::Regis
       "a policy search, and measure it on validation logs: the task gives the prior and the "
       "state and action names, identify.* the logs and their columns (docs/identify.md). "
       "Writes <output>/<name>/ (default name identify-<task>-<model.type>): phi.csv, "
-      "errors.csv, model.json with data.csv, report.md; prints its path. Exit codes: 0 done, "
+      "errors.csv, model.json with data.csv, report.md, validation-NN.png, phi.png; prints its "
+      "path. Exit codes: 0 done, "
       "1 error (a log's error names the file, line and column), 2 configuration error (also a "
       "log without a declared column).");
   auto args = std::make_shared<IdentifyArgs>();
   cmd->add_option("args", args->args, "CONFIG.yaml [key=value ...] (see 'drops config --markdown')")
       ->required();
   cmd->add_flag("-q,--quiet", args->quiet, "no progress lines");
+  cmd->add_flag("--no-figures", args->no_figures,
+                "no validation-NN.png and phi.png (they need /usr/bin/python3 with matplotlib)");
   cmd->callback([&action, &registry, args] {
     action = [&registry, args] { return identify_main(registry, *args); };
   });

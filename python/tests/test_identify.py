@@ -84,6 +84,9 @@ def test_identify_beats_the_prior_and_returns_what_the_files_hold(logs, tmp_path
     out = pathlib.Path(cli.stdout.strip())
     assert out == tmp_path / "cli" / "identify-pendubot-gp_mi"
     assert (out / "phi.csv").read_text() == (d / "phi.csv").read_text()
+    # ... and draws the figures (python/drops_plot.py identify): PNG files, not empty.
+    for name in ("validation-01.png", "phi.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
 
 
 def test_a_log_without_a_declared_column_is_refused_naming_the_file_and_column(logs, tmp_path):
