@@ -101,3 +101,25 @@ def test_a_log_without_a_declared_column_is_refused_naming_the_file_and_column(l
     with pytest.raises(drops.ConfigError, match=r"no_u\.csv: no column 'u'"):
         drops.identify(config, output=tmp_path / "out", quiet=True)
     assert not (tmp_path / "out").exists()  # nothing written
+
+
+def test_a_logged_velocity_in_degrees_per_second_is_refused_by_its_units_check(logs, tmp_path):
+    """identify.columns.state: VEL=d/dt(STATE) checks the logged velocity against the derivative
+    of STATE; the pendubot's own velocities pass it, the same in deg/s do not."""
+    states = "identify.columns.state=[dtheta1=d/dt(theta1), dtheta2=d/dt(theta2), theta1, theta2]"
+    config = write_config(tmp_path / "identify.yaml", *logs)
+    r = drops.identify(config, [states, "model.type=mi"], output=tmp_path / "out", quiet=True)
+    assert r.points == 49
+    rows = [line.split(",") for line in logs[0].read_text().splitlines()]
+    deg = tmp_path / "deg.csv"
+    deg.write_text("\n".join(",".join(row) if k == 0 else
+                             ",".join([row[0], repr(float(row[1]) * 180 / np.pi)] + row[2:])
+                             for k, row in enumerate(rows)) + "\n")
+    config = write_config(tmp_path / "identify-deg.yaml", deg, logs[1])
+    with pytest.raises(drops.Error, match=r"deg\.csv, column 'dtheta1' \(the velocity of "
+                                          r"'theta1'\): the derivative of 'theta1' is 0\.017"):
+        drops.identify(config, [states], output=tmp_path / "out2", quiet=True)
+    with pytest.raises(drops.ConfigError, match=r"'dtheta1=theta1' is not COLUMN=d/dt\(STATE\)"):
+        drops.identify(config, ["identify.columns.state=[dtheta1=theta1, dtheta2, theta1, "
+                                "theta2]"], output=tmp_path / "out3", quiet=True)
+    assert not (tmp_path / "out2").exists() and not (tmp_path / "out3").exists()

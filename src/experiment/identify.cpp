@@ -420,8 +420,9 @@ const std::vector<KeySpec>& identify_keys() {
                     "drops identify: the logs' time column (units: identify.time_scale s)"));
     v.push_back(key("identify.columns.state", "list", "[]", "-",
                     "drops identify: the column of each state, in the task's state order; "
-                    "d/dt(COLUMN) is the smoothed derivative of COLUMN (docs/logs.md); [] = the "
-                    "task's state names"));
+                    "d/dt(COLUMN) is the smoothed derivative of COLUMN, VEL=d/dt(COLUMN) the "
+                    "logged velocity VEL checked against it (degrees, sign; docs/logs.md); [] = "
+                    "the task's state names"));
     v.push_back(key("identify.columns.angles", "list", "[]", "-",
                     "drops identify: the state columns that hold angles in rad (unwrapped, "
                     "checked for degrees)"));
@@ -484,10 +485,21 @@ IdentifyOptions identify_options(const Settings& st, double dt,
   for (std::size_t i = 0; i < state.size(); ++i) {
     LogState ls;
     const std::string& c = state[i];
-    if (c.rfind("d/dt(", 0) == 0 && c.size() > 6 && c.back() == ')') {
+    const std::size_t eq = c.find('=');
+    const std::string rate = eq == std::string::npos ? c : c.substr(eq + 1);
+    const bool is_rate = rate.rfind("d/dt(", 0) == 0 && rate.size() > 6 && rate.back() == ')';
+    if (eq != std::string::npos && (!is_rate || eq == 0))
+      throw ConfigError("config key 'identify.columns.state': '" + c +
+                        "' is not COLUMN=d/dt(STATE) (a logged velocity checked against the "
+                        "derivative of STATE)");
+    if (is_rate) {
       ls.quantity = LogQuantity::kVelocity;
-      ls.of = c.substr(5, c.size() - 6);
-      ls.name = state_names[i];
+      ls.of = rate.substr(5, rate.size() - 6);
+      if (eq == std::string::npos) {
+        ls.name = state_names[i];  // derived: no column
+      } else {
+        ls.column = c.substr(0, eq);  // logged, its units checked against the derivative
+      }
     } else {
       ls.column = c;
       ls.quantity = std::find(angles.begin(), angles.end(), c) != angles.end()
