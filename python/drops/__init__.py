@@ -168,7 +168,8 @@ def identify(config=None, overrides=None, *, threads=None, output=None, name=Non
     Raises ConfigError for a bad key or value and for a log without a declared column (the
     message names the file and the column); Error for a log's other errors (file, line,
     column) and the learning's; nothing is written before the learning is done. The
-    interpreter lock is released while the C++ code runs.
+    interpreter lock is released while the C++ code runs. The figures of ``drops identify``
+    are not drawn: ``/usr/bin/python3 python/drops_plot.py identify DIR`` draws them.
     """
     args = _overrides(overrides, {"threads": threads, "output": output, "name": name})
     config, progress = _path(config, "config"), _progress(progress)

@@ -401,8 +401,6 @@ std::string num(double v) {
   return fmt::format("{}", v);
 }
 
-nlohmann::json jnum(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
-
 }  // namespace
 
 const std::vector<KeySpec>& identify_keys() {

@@ -222,7 +222,6 @@ struct IdentifyRun {
   std::filesystem::path directory;            ///< <output>/<name>
   std::vector<std::filesystem::path> files;   ///< the files written
 };
-class Registry;
 IdentifyRun identify_from_settings(const Registry& registry, const Settings& settings,
                                    const IdentifyMessage& message = nullptr,
                                    const model::ModelProgress& progress = nullptr);
