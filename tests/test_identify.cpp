@@ -122,8 +122,8 @@ TEST(Identify, OpenLoopErrorsAreTheMedianAndP90OfNaiveRolloutsFromEveryStartPoin
   const auto& seg = log.segments[0];
   const int K = seg.transitions();
   ASSERT_EQ(K, 300);
-  auto wrong = model::make_prior_only_model(std::make_shared<DrivenMass>(),
-                                            mass_parameters(1.5, 1.0));
+  auto wrong =
+      model::make_prior_only_model(std::make_shared<DrivenMass>(), mass_parameters(1.5, 1.0));
   const auto rows = experiment::prediction_errors(*wrong, log, "val", {0.1, 0.5}, 0.25);
   ASSERT_EQ(rows.size(), 6u);  // (one step, 0.1 s, 0.5 s) x 2 states
   for (const auto& r : rows) {
@@ -141,8 +141,8 @@ TEST(Identify, OpenLoopErrorsAreTheMedianAndP90OfNaiveRolloutsFromEveryStartPoin
     if (r.steps > 1 || r.dim == 1) EXPECT_GT(r.median, 0);  // one step of p: v dt, exact
   }
   // The system that wrote the log predicts it exactly.
-  auto right = model::make_prior_only_model(std::make_shared<DrivenMass>(),
-                                            mass_parameters(2.0, 0.5));
+  auto right =
+      model::make_prior_only_model(std::make_shared<DrivenMass>(), mass_parameters(2.0, 0.5));
   for (const auto& r : experiment::prediction_errors(*right, log, "val", {0.1, 0.5}, 0.25))
     EXPECT_LT(r.p90, 1e-9) << r.horizon << " " << r.state;
 }
@@ -152,9 +152,9 @@ TEST(Identify, MiRecoversThePhiThatWroteTheLogsAndBeatsThePriorOnValidation) {
   const std::vector<RecordedLog> fit = {mass_log(truth, 400, 1, "fit")};
   const std::vector<RecordedLog> val = {mass_log(truth, 200, 2, "val")};
   std::vector<std::string> lines;
-  const auto r = experiment::identify(mass_model(model::ModelType::kMi, 1.0, 2.0), fit, val,
-                                      mass_options(),
-                                      [&](const std::string& s) { lines.push_back(s); });
+  const auto r =
+      experiment::identify(mass_model(model::ModelType::kMi, 1.0, 2.0), fit, val, mass_options(),
+                           [&](const std::string& s) { lines.push_back(s); });
   EXPECT_NEAR(r.summary.phi[0], 2.0, 1e-3);
   EXPECT_NEAR(r.summary.phi[1], 0.5, 1e-3);
   EXPECT_EQ(r.summary.points, 400);
@@ -172,8 +172,7 @@ TEST(Identify, MaxPointsLearnsFromTheEvenlySpacedSubset) {
   const std::vector<RecordedLog> fit = {mass_log(truth, 400, 1, "fit")};
   IdentifyOptions o = mass_options();
   o.max_points = 100;
-  const auto r =
-      experiment::identify(mass_model(model::ModelType::kGp, 1, 1), fit, {}, o);
+  const auto r = experiment::identify(mass_model(model::ModelType::kGp, 1, 1), fit, {}, o);
   EXPECT_EQ(r.summary.transitions, 400);
   EXPECT_EQ(r.summary.points, 100);
   ASSERT_EQ(r.data.size(), 100u);
@@ -244,14 +243,14 @@ TEST(Identify, LoadedModelPredictsAsTheFittedOneWithoutRefitting) {
       const VectorXd x = seg.x.row(k).transpose() + VectorXd::Constant(2, 0.01 * k);
       r.model->predict(x, seg.u.row(k).transpose(), a);
       loaded->predict(x, seg.u.row(k).transpose(), b);
-      worst = std::max({worst, (a.mean - b.mean).cwiseAbs().maxCoeff(),
-                        (a.var - b.var).cwiseAbs().maxCoeff()});
+      worst = std::max(
+          {worst, (a.mean - b.mean).cwiseAbs().maxCoeff(), (a.var - b.var).cwiseAbs().maxCoeff()});
     }
     EXPECT_LE(worst, 1e-12) << what.type;
     // The starting model (not learned) predicts otherwise: the comparison can fail.
     if (type != model::ModelType::kGp) {
-      auto fresh = model::make_prior_only_model(std::make_shared<DrivenMass>(),
-                                                mass_parameters(1.5, 1.0));
+      auto fresh =
+          model::make_prior_only_model(std::make_shared<DrivenMass>(), mass_parameters(1.5, 1.0));
       fresh->predict(seg.x.row(5).transpose(), seg.u.row(5).transpose(), b);
       r.model->predict(seg.x.row(5).transpose(), seg.u.row(5).transpose(), a);
       EXPECT_GT((a.mean - b.mean).cwiseAbs().maxCoeff(), 1e-6) << what.type;

@@ -8,9 +8,9 @@
 
 #include "cli_common.hpp"
 #include "command.hpp"
-#include "figures.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/experiment/identify.hpp"
+#include "figures.hpp"
 
 namespace drops::app {
 
@@ -42,9 +42,10 @@ int identify_main(const experiment::Registry& registry, const IdentifyArgs& a) {
     try {
       plot_identify(dir);
     } catch (const Error& e) {
-      throw Error(fmt::format("{} (the tables and the model are written in {}; --no-figures "
-                              "skips the figures)",
-                              e.what(), dir.string()));
+      throw Error(
+          fmt::format("{} (the tables and the model are written in {}; --no-figures "
+                      "skips the figures)",
+                      e.what(), dir.string()));
     }
   }
   if (!a.quiet) std::cerr << result.summary.BriefReport();

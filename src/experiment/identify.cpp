@@ -8,15 +8,14 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
-#include "drops/experiment/run_directory.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/registry.hpp"
+#include "drops/experiment/run_directory.hpp"
 #include "drops/model/dataset.hpp"
 #include "drops/model/gp_dynamics.hpp"
 #include "drops/model/simulator_model.hpp"
@@ -105,14 +104,15 @@ bool IdentifyOptions::IsValid(std::string* why) const {
       return fail(fmt::format("identify.horizons: {} s is shorter than dt = {} s", h, log.dt));
     const int n = steps_of(h, log.dt);
     if (n <= last)
-      return fail(fmt::format("identify.horizons: {} s is not longer than the one before it "
-                              "(in steps of dt = {} s)",
-                              h, log.dt));
+      return fail(
+          fmt::format("identify.horizons: {} s is not longer than the one before it "
+                      "(in steps of dt = {} s)",
+                      h, log.dt));
     last = n;
   }
   if (!std::isfinite(start_spacing) || start_spacing < log.dt * (1 - 1e-9))
-    return fail(fmt::format("identify.start_spacing: {} s is shorter than dt = {} s",
-                            start_spacing, log.dt));
+    return fail(fmt::format("identify.start_spacing: {} s is shorter than dt = {} s", start_spacing,
+                            log.dt));
   if (max_points < 0) return fail(fmt::format("identify.max_points: {} < 0", max_points));
   if (threads < 0) return fail(fmt::format("threads: {} < 0", threads));
   return true;
@@ -128,9 +128,10 @@ MatrixXd open_loop_rollout(const model::DynamicsModel& model, const VectorXd& x0
     const VectorXd u = actions.row(k).transpose();
     model.predict(x, u, p);
     if (p.mean.size() != x.size())
-      throw InvalidArgument(fmt::format("open_loop_rollout: the model predicts dim {}, the state "
-                                        "has dim {}",
-                                        p.mean.size(), x.size()));
+      throw InvalidArgument(
+          fmt::format("open_loop_rollout: the model predicts dim {}, the state "
+                      "has dim {}",
+                      p.mean.size(), x.size()));
     x += p.mean;
     out.row(k + 1) = x.transpose();
   }
@@ -143,8 +144,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
                                                 double start_spacing) {
   const double dt = log.dt;
   if (!(start_spacing >= dt * (1 - 1e-9)))
-    throw InvalidArgument(fmt::format("prediction_errors: start spacing {} s < dt {} s",
-                                      start_spacing, dt));
+    throw InvalidArgument(
+        fmt::format("prediction_errors: start spacing {} s < dt {} s", start_spacing, dt));
   const int E = static_cast<int>(log.state_names.size());
   // Horizons in steps, the one-step errors first (start spacing: one step).
   std::vector<int> steps = {1};
@@ -169,7 +170,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
       if (starts.empty()) continue;
       const auto B = static_cast<Eigen::Index>(starts.size());
       MatrixXd X(B, E), U(B, seg.u.cols()), mean, var;
-      for (Eigen::Index b = 0; b < B; ++b) X.row(b) = seg.x.row(starts[static_cast<std::size_t>(b)]);
+      for (Eigen::Index b = 0; b < B; ++b)
+        X.row(b) = seg.x.row(starts[static_cast<std::size_t>(b)]);
       for (int j = 0; j < n; ++j) {
         for (Eigen::Index b = 0; b < B; ++b)
           U.row(b) = seg.u.row(starts[static_cast<std::size_t>(b)] + j);
@@ -178,8 +180,7 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
       }
       for (Eigen::Index b = 0; b < B; ++b)
         for (int i = 0; i < E; ++i) {
-          const double e =
-              std::abs(X(b, i) - seg.x(starts[static_cast<std::size_t>(b)] + n, i));
+          const double e = std::abs(X(b, i) - seg.x(starts[static_cast<std::size_t>(b)] + n, i));
           errs[h][static_cast<std::size_t>(i)].push_back(std::isfinite(e) ? e : kInf);
         }
     }
@@ -203,9 +204,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
 }
 
 IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog>& fit,
-                        const std::vector<RecordedLog>& validation,
-                        const IdentifyOptions& options, const IdentifyMessage& message,
-                        const model::ModelProgress& progress) {
+                        const std::vector<RecordedLog>& validation, const IdentifyOptions& options,
+                        const IdentifyMessage& message, const model::ModelProgress& progress) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument(why);
   if (fit.empty()) throw InvalidArgument("identify: no fit log");
@@ -235,21 +235,23 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
         what.task->name(), what.task->state_dim(), what.task->action_dim(), E,
         fmt::join(first.state_names, ", "), U, fmt::join(first.action_names, ", ")));
   if (std::abs(what.task->dt() - dt) > 1e-9 * dt)
-    throw InvalidArgument(fmt::format("identify: the task's dt is {} s, the logs are resampled "
-                                      "to {} s (identify.dt / the log options' dt)",
-                                      what.task->dt(), dt));
+    throw InvalidArgument(
+        fmt::format("identify: the task's dt is {} s, the logs are resampled "
+                    "to {} s (identify.dt / the log options' dt)",
+                    what.task->dt(), dt));
   const bool uses_prior = what.factory ? what.uses_prior : model::uses_prior(what.options.type);
   if (uses_prior) {
     if (!what.prior)
       throw InvalidArgument("identify: model.type " + what.type + " needs a prior; none given");
     if (what.prior->state_dim() != E || what.prior->action_dim() != U)
-      throw InvalidArgument(fmt::format(
-          "identify: the prior has state dim {} and action dim {}, the logs {} and {}",
-          what.prior->state_dim(), what.prior->action_dim(), E, U));
+      throw InvalidArgument(
+          fmt::format("identify: the prior has state dim {} and action dim {}, the logs {} and {}",
+                      what.prior->state_dim(), what.prior->action_dim(), E, U));
     if (what.prior_dt > 0 && std::abs(what.prior_dt - dt) > 1e-9 * dt)
-      throw InvalidArgument(fmt::format("identify: the prior integrates over dt = {} s, the logs "
-                                        "are resampled to {} s: set the same control period",
-                                        what.prior_dt, dt));
+      throw InvalidArgument(
+          fmt::format("identify: the prior integrates over dt = {} s, the logs "
+                      "are resampled to {} s: set the same control period",
+                      what.prior_dt, dt));
     what.parameters.check();
   }
 
@@ -279,7 +281,8 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
   const model::PriorParameters params = uses_prior ? what.parameters : model::PriorParameters{};
   res.model = what.factory ? what.factory(mo, what.task, prior, params)
                            : model::make_model(mo, what.task, prior, params);
-  if (!res.model) throw InvalidArgument("identify: the model factory of " + what.type + " gave none");
+  if (!res.model)
+    throw InvalidArgument("identify: the model factory of " + what.type + " gave none");
   say(fmt::format("learning {} on {} of {} transitions ({} fit log{})", what.type, s.points,
                   s.transitions, fit.size(), fit.size() == 1 ? "" : "s"));
   s.model = res.model->learn(res.data, progress);
@@ -315,8 +318,8 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
   if (uses_prior) prior_model = model::make_prior_only_model(what.prior, what.parameters);
   for (const auto& l : validation) {
     say("validating on " + l.report.source);
-    auto e = prediction_errors(*res.model, l, l.report.source, options.horizons,
-                               options.start_spacing);
+    auto e =
+        prediction_errors(*res.model, l, l.report.source, options.horizons, options.start_spacing);
     s.errors.insert(s.errors.end(), e.begin(), e.end());
     if (prior_model) {
       e = prediction_errors(*prior_model, l, l.report.source, options.horizons,
@@ -350,14 +353,14 @@ IdentifyResult identify(const IdentifyModel& what, const IdentifyOptions& option
 
 std::string IdentifySummary::BriefReport() const {
   std::ostringstream o;
-  o << fmt::format("{}: {} of {} transitions (dt {} s) from {} fit log(s); learning {:.1f} s, "
-                   "validation {:.1f} s\n",
-                   model_type, points, transitions, dt, fit_reports.size(), learn_seconds,
-                   validation_seconds);
+  o << fmt::format(
+      "{}: {} of {} transitions (dt {} s) from {} fit log(s); learning {:.1f} s, "
+      "validation {:.1f} s\n",
+      model_type, points, transitions, dt, fit_reports.size(), learn_seconds, validation_seconds);
   for (Eigen::Index i = 0; i < phi.size(); ++i) {
     if (!phi_tunable[static_cast<std::size_t>(i)]) continue;
-    o << fmt::format("  {} = {:.6g} (start {:.6g}", phi_names[static_cast<std::size_t>(i)],
-                     phi[i], phi_start[i]);
+    o << fmt::format("  {} = {:.6g} (start {:.6g}", phi_names[static_cast<std::size_t>(i)], phi[i],
+                     phi_start[i]);
     if (std::isfinite(phi_lower95[i]))
       o << fmt::format(", 95% [{:.6g}, {:.6g}]", phi_lower95[i], phi_upper95[i]);
     o << ")\n";
@@ -381,9 +384,8 @@ std::string IdentifySummary::BriefReport() const {
 
 namespace {
 
-KeySpec key(std::string name, std::string type, std::string def, std::string unit,
-            std::string doc, double min = 0, double max = 0,
-            std::vector<std::string> allowed = {}) {
+KeySpec key(std::string name, std::string type, std::string def, std::string unit, std::string doc,
+            double min = 0, double max = 0, std::vector<std::string> allowed = {}) {
   KeySpec k;
   k.key = std::move(name);
   k.type = std::move(type);
@@ -441,8 +443,8 @@ const std::vector<KeySpec>& identify_keys() {
                     "drops identify: window of the Savitzky-Golay derivative of d/dt states", 0,
                     1e3));
     v.push_back(key("identify.horizons", "numbers", "[0.1, 0.5, 1]", "s",
-                    "drops identify: open-loop horizons of the validation errors, ascending",
-                    1e-9, 1e6));
+                    "drops identify: open-loop horizons of the validation errors, ascending", 1e-9,
+                    1e6));
     v.push_back(key("identify.start_spacing", "double", num(d.start_spacing), "s",
                     "drops identify: time between open-loop start points", 1e-9, 1e6));
     v.push_back(key("identify.max_points", "int", "0", "-",
@@ -551,8 +553,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     std::string t = "model,file,horizon,steps,dim,state,median,p90,n\n";
     auto rows = [&](const char* m, const std::vector<PredictionErrors>& v) {
       for (const auto& e : v)
-        t += fmt::format("{},{},{},{},{},{},{},{},{}\n", m, e.file, num(e.horizon), e.steps,
-                         e.dim, e.state, e.median, e.p90, e.n);
+        t += fmt::format("{},{},{},{},{},{},{},{},{}\n", m, e.file, num(e.horizon), e.steps, e.dim,
+                         e.state, e.median, e.p90, e.n);
     };
     rows("learned", s.errors);
     rows("prior", s.prior_errors);
@@ -570,7 +572,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     j["phi_names"] = s.phi_names;
     j["phi"] = std::vector<double>(st.phi.data(), st.phi.data() + st.phi.size());
     nlohmann::json h = nlohmann::json::array();
-    for (const auto& v : st.h_params) h.push_back(std::vector<double>(v.data(), v.data() + v.size()));
+    for (const auto& v : st.h_params)
+      h.push_back(std::vector<double>(v.data(), v.data() + v.size()));
     j["h_params"] = h;
     j["data"] = "data.csv";
     j["points"] = s.points;
@@ -659,8 +662,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
       o << "\n## phi\n\n| name | start | learned | 95% interval |\n|---|---|---|---|\n";
       for (Eigen::Index i = 0; i < s.phi.size(); ++i) {
         if (!s.phi_tunable[static_cast<std::size_t>(i)]) continue;
-        o << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n", s.phi_names[static_cast<std::size_t>(i)],
-                         s.phi_start[i], s.phi[i],
+        o << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n",
+                         s.phi_names[static_cast<std::size_t>(i)], s.phi_start[i], s.phi[i],
                          std::isfinite(s.phi_lower95[i])
                              ? fmt::format("[{:.6g}, {:.6g}]", s.phi_lower95[i], s.phi_upper95[i])
                              : std::string("- (at a bound, or no posterior)"));
@@ -673,14 +676,13 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
       o << "|---|---|---|---|---|---|\n";
       for (std::size_t k = 0; k < s.errors.size(); ++k) {
         const auto& e = s.errors[k];
-        o << fmt::format("| {} | {} | {} | {:.4g} / {:.4g} | {} | {} |\n",
-                         fs::path(e.file).filename().string(), e.horizon, e.state, e.median,
-                         e.p90,
-                         k < s.prior_errors.size()
-                             ? fmt::format("{:.4g} / {:.4g}", s.prior_errors[k].median,
-                                           s.prior_errors[k].p90)
-                             : std::string("-"),
-                         e.n);
+        o << fmt::format(
+            "| {} | {} | {} | {:.4g} / {:.4g} | {} | {} |\n", fs::path(e.file).filename().string(),
+            e.horizon, e.state, e.median, e.p90,
+            k < s.prior_errors.size()
+                ? fmt::format("{:.4g} / {:.4g}", s.prior_errors[k].median, s.prior_errors[k].p90)
+                : std::string("-"),
+            e.n);
       }
     }
     o << "\n## Model\n\n" << s.model.BriefReport() << "\n";
@@ -727,8 +729,8 @@ IdentifyRun identify_from_settings(const Registry& registry, const Settings& set
                         variant.name, setup.task->dt(), run.options.logs.size(),
                         run.options.validation.size()));
   run.result = identify(what, run.options, message, progress);
-  run.files = write_identify_directory(run.directory, run.result, run.options,
-                                       to_yaml(registry, settings));
+  run.files =
+      write_identify_directory(run.directory, run.result, run.options, to_yaml(registry, settings));
   return run;
 }
 
@@ -822,11 +824,9 @@ std::unique_ptr<model::DynamicsModel> load_identified_model(const std::filesyste
       t.dx = Eigen::Map<const VectorXd>(v.data() + E + U, E);
       data.push_back(std::move(t));
     }
-    const bool uses_prior =
-        what.factory ? what.uses_prior : model::uses_prior(what.options.type);
+    const bool uses_prior = what.factory ? what.uses_prior : model::uses_prior(what.options.type);
     std::shared_ptr<const model::MeanFunction> prior = uses_prior ? what.prior : nullptr;
-    const model::PriorParameters params =
-        uses_prior ? what.parameters : model::PriorParameters{};
+    const model::PriorParameters params = uses_prior ? what.parameters : model::PriorParameters{};
     std::unique_ptr<model::DynamicsModel> m =
         what.factory ? what.factory(what.options, what.task, prior, params)
                      : model::make_model(what.options, what.task, prior, params);

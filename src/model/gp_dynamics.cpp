@@ -144,8 +144,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
       s.log_likelihoods[i] = g.log_marginal_likelihood();
     }
   } else {
-    s.log_likelihoods =
-        fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
+    s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
   }
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_)
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);

@@ -140,7 +140,7 @@ struct IdentifySummary {
 struct IdentifyResult {
   IdentifySummary summary;
   std::unique_ptr<model::DynamicsModel> model;
-  std::vector<Transition> data;        ///< the transitions the model learned from
+  std::vector<Transition> data;              ///< the transitions the model learned from
   std::vector<RecordedLog> fit, validation;  ///< the logs as resampled
 };
 
@@ -167,8 +167,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
 /// invalid options or a model description that does not fit the logs (dimensions, dt, a
 /// missing prior; the message names the item), drops::Error from the model's learning.
 IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog>& fit,
-                        const std::vector<RecordedLog>& validation,
-                        const IdentifyOptions& options, const IdentifyMessage& message = nullptr,
+                        const std::vector<RecordedLog>& validation, const IdentifyOptions& options,
+                        const IdentifyMessage& message = nullptr,
                         const model::ModelProgress& progress = nullptr);
 
 /// The same reading options.logs and options.validation (read_log with options.columns and
@@ -207,7 +207,6 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
                                                             const IdentifyOptions& options,
                                                             const std::string& config_yaml);
 
-
 /// `drops identify`'s whole work, shared by the command line and Python's drops.identify: the
 /// task of settings' `task` gives the prior, its parameters and the state and action names,
 /// model.* the variant, identify.* the logs (identify_options); identify() runs and the
@@ -219,8 +218,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
 struct IdentifyRun {
   IdentifyResult result;
   IdentifyOptions options;
-  std::filesystem::path directory;            ///< <output>/<name>
-  std::vector<std::filesystem::path> files;   ///< the files written
+  std::filesystem::path directory;           ///< <output>/<name>
+  std::vector<std::filesystem::path> files;  ///< the files written
 };
 IdentifyRun identify_from_settings(const Registry& registry, const Settings& settings,
                                    const IdentifyMessage& message = nullptr,
