@@ -15,6 +15,13 @@ Every statistic is computed by the C++ side; this script only draws.
       labels and units the task declared (plot-data.json "phi_labels", "columns", "metric"); a
       quantity it did not declare is shown by its name, without a unit.
 
+  drops_plot.py identify DIR
+      The figures of a `drops identify` directory (docs/identify.md): validation-NN.png from each
+      validation-NN.csv (per state, the recorded trajectory and the model's open-loop
+      predictions over the longest horizon from every start point) and, when the model has a
+      prior, phi.png from phi.csv (per tunable parameter: its start, the learned value and the
+      posterior's 95% interval).
+
   drops_plot.py archive ARCHIVE_CSV OUTPUT_PNG
       An IT&E MAP-Elites archive (a run's archive.csv, or any file of that format): every cell of
       the grid coloured by its elite's fitness (empty cells blank; with more than 2 descriptor
@@ -771,6 +778,96 @@ def plot_calibration(calibration_csv, output_png):
     save(fig, output_png)
 
 
+# ---- drops identify: predicted against recorded trajectories, and phi ----
+
+def read_columns(path):
+    """A CSV file as {column: numpy array} (empty cells NaN)."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    return {name: np.array([number(r[j]) for r in body]) for j, name in enumerate(header)}
+
+
+def plot_identify_validation(csv_path, png_path):
+    t = read_columns(csv_path)
+    states = [c for c in t if c.startswith("pred_")]
+    recorded = np.isnan(t["start"])
+    ncols = 2 if len(states) > 1 else 1
+    nrows = math.ceil(len(states) / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(10, 2.6 * nrows), sharex=True, squeeze=False)
+    starts = np.unique(t["start"][~recorded])
+    for j, p in enumerate(states):
+        c = p[len("pred_"):]
+        ax = axes[j // ncols][j % ncols]
+        ax.plot(t["t"][recorded], t[c][recorded], color="#1f77b4", linewidth=1.8,
+                label="recorded")
+        for k, s0 in enumerate(starts):
+            rows = t["start"] == s0
+            ax.plot(t["t"][rows], t[p][rows], color="#ff7f0e", linestyle="--", linewidth=1.4,
+                    label="predicted open loop (model mean)" if k == 0 else None)
+            ax.plot(t["t"][rows][:1], t[p][rows][:1], "o", color="#ff7f0e", markersize=3,
+                    label="start point" if k == 0 else None)
+        ax.set_ylabel(c)
+        if j // ncols == nrows - 1 or j + ncols >= len(states):
+            ax.set_xlabel("time (s)")
+            ax.tick_params(labelbottom=True)
+    for j in range(len(states), nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    h, l = axes[0][0].get_legend_handles_labels()
+    fig.legend(h, l, loc="lower center", ncol=3, frameon=False, bbox_to_anchor=(0.5, -0.01))
+    fig.suptitle(f"{os.path.basename(csv_path)}: recorded and predicted from each start point",
+                 fontsize=12)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    save(fig, png_path)
+
+
+def plot_identify_phi(csv_path, png_path):
+    with open(csv_path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["tunable"] == "1"]
+    if not rows:
+        return False
+    n = len(rows)
+    ncols = 2 if n in (2, 4) else min(n, 3)
+    nrows = math.ceil(n / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.4 * ncols, 2.2 * nrows), squeeze=False)
+    for j, r in enumerate(rows):
+        ax = axes[j // ncols][j % ncols]
+        v, lo, hi = number(r["value"]), number(r["lower95"]), number(r["upper95"])
+        ax.plot([number(r["start"])], [1], "s", color="#7f7f7f", markersize=7, label="start")
+        if math.isfinite(lo):
+            ax.errorbar([v], [0], xerr=[[v - lo], [hi - v]], fmt="o", color="#1f77b4",
+                        capsize=4, label="learned, 95% interval")
+        else:
+            ax.plot([v], [0], "o", color="#1f77b4", label="learned (no interval)")
+        ax.set_yticks([])
+        ax.set_ylim(-0.8, 1.8)
+        ax.margins(x=0.3)
+        ax.set_title(r["name"])
+    for j in range(n, nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    handles, labels = {}, {}
+    for ax in axes.flat:
+        for h, l in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(l, h)
+    fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=3,
+               frameon=False, bbox_to_anchor=(0.5, -0.02))
+    fig.suptitle("Prior parameters φ: start and learned", fontsize=12)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    save(fig, png_path)
+    return True
+
+
+def plot_identify(directory):
+    names = sorted(f for f in os.listdir(directory)
+                   if f.startswith("validation-") and f.endswith(".csv"))
+    for name in names:
+        plot_identify_validation(os.path.join(directory, name),
+                                 os.path.join(directory, name[:-4] + ".png"))
+    phi = os.path.join(directory, "phi.csv")
+    if os.path.exists(phi):
+        plot_identify_phi(phi, os.path.join(directory, "phi.png"))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -788,8 +885,12 @@ def main():
     arch = sub.add_parser("archive")
     arch.add_argument("archive_csv")
     arch.add_argument("output_png")
+    ident = sub.add_parser("identify")
+    ident.add_argument("directory")
     args = parser.parse_args()
-    if args.command == "report":
+    if args.command == "identify":
+        plot_identify(args.directory)
+    elif args.command == "report":
         plot_report(args.table_csv, args.output_png, args.ylabel)
     elif args.command == "calibration":
         plot_calibration(args.calibration_csv, args.output_png)

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 
 #include "drops/core/errors.hpp"
@@ -120,8 +122,8 @@ TEST(Identify, OpenLoopErrorsAreTheMedianAndP90OfNaiveRolloutsFromEveryStartPoin
   const auto& seg = log.segments[0];
   const int K = seg.transitions();
   ASSERT_EQ(K, 300);
-  auto wrong = model::make_prior_only_model(std::make_shared<DrivenMass>(),
-                                            mass_parameters(1.5, 1.0));
+  auto wrong =
+      model::make_prior_only_model(std::make_shared<DrivenMass>(), mass_parameters(1.5, 1.0));
   const auto rows = experiment::prediction_errors(*wrong, log, "val", {0.1, 0.5}, 0.25);
   ASSERT_EQ(rows.size(), 6u);  // (one step, 0.1 s, 0.5 s) x 2 states
   for (const auto& r : rows) {
@@ -139,8 +141,8 @@ TEST(Identify, OpenLoopErrorsAreTheMedianAndP90OfNaiveRolloutsFromEveryStartPoin
     if (r.steps > 1 || r.dim == 1) EXPECT_GT(r.median, 0);  // one step of p: v dt, exact
   }
   // The system that wrote the log predicts it exactly.
-  auto right = model::make_prior_only_model(std::make_shared<DrivenMass>(),
-                                            mass_parameters(2.0, 0.5));
+  auto right =
+      model::make_prior_only_model(std::make_shared<DrivenMass>(), mass_parameters(2.0, 0.5));
   for (const auto& r : experiment::prediction_errors(*right, log, "val", {0.1, 0.5}, 0.25))
     EXPECT_LT(r.p90, 1e-9) << r.horizon << " " << r.state;
 }
@@ -150,9 +152,9 @@ TEST(Identify, MiRecoversThePhiThatWroteTheLogsAndBeatsThePriorOnValidation) {
   const std::vector<RecordedLog> fit = {mass_log(truth, 400, 1, "fit")};
   const std::vector<RecordedLog> val = {mass_log(truth, 200, 2, "val")};
   std::vector<std::string> lines;
-  const auto r = experiment::identify(mass_model(model::ModelType::kMi, 1.0, 2.0), fit, val,
-                                      mass_options(),
-                                      [&](const std::string& s) { lines.push_back(s); });
+  const auto r =
+      experiment::identify(mass_model(model::ModelType::kMi, 1.0, 2.0), fit, val, mass_options(),
+                           [&](const std::string& s) { lines.push_back(s); });
   EXPECT_NEAR(r.summary.phi[0], 2.0, 1e-3);
   EXPECT_NEAR(r.summary.phi[1], 0.5, 1e-3);
   EXPECT_EQ(r.summary.points, 400);
@@ -170,8 +172,7 @@ TEST(Identify, MaxPointsLearnsFromTheEvenlySpacedSubset) {
   const std::vector<RecordedLog> fit = {mass_log(truth, 400, 1, "fit")};
   IdentifyOptions o = mass_options();
   o.max_points = 100;
-  const auto r =
-      experiment::identify(mass_model(model::ModelType::kGp, 1, 1), fit, {}, o);
+  const auto r = experiment::identify(mass_model(model::ModelType::kGp, 1, 1), fit, {}, o);
   EXPECT_EQ(r.summary.transitions, 400);
   EXPECT_EQ(r.summary.points, 100);
   ASSERT_EQ(r.data.size(), 100u);
@@ -217,6 +218,70 @@ TEST(Identify, RefusesAPriorOrTaskWhoseDtOrDimensionsDifferFromTheLogs) {
                InvalidArgument);
   EXPECT_THROW(experiment::feature_task(2, 1, 0.0), InvalidArgument);
   EXPECT_THROW(experiment::feature_task(2, 1, kDt, {3, nullptr}), InvalidArgument);
+}
+
+// The saved model (model.json + data.csv) loaded again predicts what the fitted one does, mean
+// and variance, without learning: for each built-in variant, on states of another log.
+TEST(Identify, LoadedModelPredictsAsTheFittedOneWithoutRefitting) {
+  namespace fs = std::filesystem;
+  const VectorXd truth = (VectorXd(2) << 2.0, 0.5).finished();
+  const std::vector<RecordedLog> fit = {mass_log(truth, 120, 1, "fit")};
+  const RecordedLog val = mass_log(truth, 60, 2, "val");
+  const auto& seg = val.segments.at(0);
+  for (const auto type : {model::ModelType::kGp, model::ModelType::kGpPrior,
+                          model::ModelType::kGpMi, model::ModelType::kMi}) {
+    const IdentifyModel what = mass_model(type, 1.5, 1.0);
+    const auto r = experiment::identify(what, fit, {}, mass_options());
+    const fs::path dir = fs::path(::testing::TempDir()) / ("identify-load-" + what.type);
+    fs::remove_all(dir);
+    experiment::write_identify_directory(dir, r, mass_options(), "{}\n");
+    const auto loaded = experiment::load_identified_model(dir, what);
+    EXPECT_EQ(loaded->phi(), r.model->phi()) << what.type;
+    Prediction a, b;
+    double worst = 0;
+    for (Eigen::Index k = 0; k < seg.u.rows(); ++k) {
+      const VectorXd x = seg.x.row(k).transpose() + VectorXd::Constant(2, 0.01 * k);
+      r.model->predict(x, seg.u.row(k).transpose(), a);
+      loaded->predict(x, seg.u.row(k).transpose(), b);
+      worst = std::max(
+          {worst, (a.mean - b.mean).cwiseAbs().maxCoeff(), (a.var - b.var).cwiseAbs().maxCoeff()});
+    }
+    EXPECT_LE(worst, 1e-12) << what.type;
+    // The starting model (not learned) predicts otherwise: the comparison can fail.
+    if (type != model::ModelType::kGp) {
+      auto fresh =
+          model::make_prior_only_model(std::make_shared<DrivenMass>(), mass_parameters(1.5, 1.0));
+      fresh->predict(seg.x.row(5).transpose(), seg.u.row(5).transpose(), b);
+      r.model->predict(seg.x.row(5).transpose(), seg.u.row(5).transpose(), a);
+      EXPECT_GT((a.mean - b.mean).cwiseAbs().maxCoeff(), 1e-6) << what.type;
+    }
+  }
+}
+
+TEST(Identify, LoadRefusesAnotherModelTypeOrACutDataFileNamingTheFile) {
+  namespace fs = std::filesystem;
+  const VectorXd truth = (VectorXd(2) << 2.0, 0.5).finished();
+  const std::vector<RecordedLog> fit = {mass_log(truth, 60, 1, "fit")};
+  const IdentifyModel what = mass_model(model::ModelType::kGpPrior, 2.0, 0.5);
+  const auto r = experiment::identify(what, fit, {}, mass_options());
+  const fs::path dir = fs::path(::testing::TempDir()) / "identify-load-bad";
+  fs::remove_all(dir);
+  experiment::write_identify_directory(dir, r, mass_options(), "{}\n");
+  try {
+    experiment::load_identified_model(dir, mass_model(model::ModelType::kGp, 2.0, 0.5));
+    ADD_FAILURE() << "a gp_prior model loaded as gp";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("model.json"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir / "data.csv", std::ios::app) << "1,2\n";
+  try {
+    experiment::load_identified_model(dir, what);
+    ADD_FAILURE() << "a data.csv with a short line loaded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("data.csv: line 62 has 2 values, expected 5"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

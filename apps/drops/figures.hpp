@@ -33,6 +33,12 @@ std::vector<std::filesystem::path> write_report(const experiment::CampaignReport
 void plot_archive(const std::filesystem::path& archive_csv,
                   const std::filesystem::path& output_png);
 
+/// `drops identify`: draws validation-NN.png (recorded against open-loop predicted trajectories,
+/// from validation-NN.csv) and phi.png (from phi.csv, when it has a tunable parameter) into the
+/// identify directory `dir` (experiment::write_identify_directory). Returns the files drawn.
+/// Throws drops::Error when python/matplotlib fails (the directory's other files are kept).
+std::vector<std::filesystem::path> plot_identify(const std::filesystem::path& dir);
+
 std::vector<std::filesystem::path> plot_run(const experiment::Registry& registry,
                                             const std::filesystem::path& run_dir,
                                             const std::string& episodes,

@@ -156,6 +156,16 @@ std::vector<fs::path> write_report(const CampaignReport& report, const fs::path&
   return files;
 }
 
+std::vector<fs::path> plot_identify(const fs::path& dir) {
+  run_plot_script({"identify", dir.string()}, "drops identify");
+  std::vector<fs::path> drawn;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().extension() == ".png") drawn.push_back(e.path());
+  std::sort(drawn.begin(), drawn.end());
+  return drawn;
+}
+
 void plot_archive(const fs::path& archive_csv, const fs::path& output_png) {
   experiment::read_archive_file(archive_csv);  // a clear error for a file that is not one
   if (!output_png.parent_path().empty()) create_output_dir(output_png.parent_path());

@@ -26,6 +26,7 @@ from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDir
                      RunDirectoryDamaged, RunOutcome)
 from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec, _unicode
 from .description import DescriptionPrior
+from .identify import IdentifyResult, _result as _identify_result
 
 __version__ = _drops.__version__  # drops's version (CHANGELOG.md), the C++ library's
 
@@ -33,7 +34,8 @@ __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
     "read_trajectory", "read_policy", "read_log", "RecordedLog", "LogSegment", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
     "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged", "Task",
-    "System", "Prior", "Parameter", "Reflection", "DescriptionPrior",
+    "System", "Prior", "Parameter", "Reflection", "DescriptionPrior", "identify",
+    "IdentifyResult",
 ]
 
 
@@ -150,6 +152,28 @@ def run(config=None, overrides=None, *, seed=None, threads=None, output=None, na
         return _drops._run(config, args, bool(quiet), progress)
     spec = _robot_spec(task, system, prior, _builtin_tasks())
     return _drops._run_task(spec, task, system, prior, config, args, bool(quiet), progress)
+
+
+def identify(config=None, overrides=None, *, threads=None, output=None, name=None, quiet=False,
+             progress=None):
+    """Learns a dynamics model from recorded logs and measures it on validation logs, as
+    ``drops identify CONFIG [key=value ...]`` does (docs/identify.md); returns an IdentifyResult
+    (phi and its intervals, the errors as numpy arrays, the output directory).
+
+    config, overrides: as for run(); the keys identify.* name the logs and their columns, the
+        task gives the prior and the state and action names, model.type the variant.
+    threads, output, name: as the overrides threads=, output= and name= (the directory
+        <output>/<name>, default name identify-<task>-<model.type>).
+    quiet, progress: as for run() (progress lines of the reading, learning and validation).
+    Raises ConfigError for a bad key or value and for a log without a declared column (the
+    message names the file and the column); Error for a log's other errors (file, line,
+    column) and the learning's; nothing is written before the learning is done. The
+    interpreter lock is released while the C++ code runs. The figures of ``drops identify``
+    are not drawn: ``/usr/bin/python3 python/drops_plot.py identify DIR`` draws them.
+    """
+    args = _overrides(overrides, {"threads": threads, "output": output, "name": name})
+    config, progress = _path(config, "config"), _progress(progress)
+    return _identify_result(_drops._identify(config, args, bool(quiet), progress))
 
 
 def resume(directory, overrides=None, *, threads=None, quiet=False, progress=None, task=None,

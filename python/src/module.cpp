@@ -19,6 +19,7 @@
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/experiment/config.hpp"
+#include "drops/experiment/identify.hpp"
 #include "drops/experiment/recorded_log.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run.hpp"
@@ -495,6 +496,70 @@ PYBIND11_MODULE(_drops, m) {
       py::arg("spec"), py::arg("task"), py::arg("system"), py::arg("prior"), py::arg("directory"),
       py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
       "drops.resume(task=...)'s C++ side: as _resume, with the robot registered as for _run_task.");
+  m.def(
+      "_identify",
+      [](const std::string& config, const std::vector<std::string>& overrides, bool quiet,
+         py::object progress) {
+        const ex::Settings s = settings_of(config, overrides);
+        // Progress lines go to the callable (or sys.stderr), the interpreter lock taken for each.
+        auto say = [&](const std::string& line) {
+          if (quiet) return;
+          py::gil_scoped_acquire gil;
+          if (progress.is_none())
+            py::module_::import("sys").attr("stderr").attr("write")("drops identify: " + line +
+                                                                   "\n");
+          else
+            progress(line);
+        };
+        std::optional<ex::IdentifyRun> run;
+        {
+          py::gil_scoped_release release;
+          run.emplace(ex::identify_from_settings(
+              registry(), s, say, [&](const std::string& phase, int evaluations, double best) {
+                say(phase + " " + std::to_string(evaluations) + " evaluations, best " +
+                    std::to_string(best));
+              }));
+        }
+        const ex::IdentifySummary& r = run->result.summary;
+        auto vec = [](const drops::VectorXd& v) {
+          py::array_t<double> a(static_cast<py::ssize_t>(v.size()));
+          if (v.size() > 0) std::memcpy(a.mutable_data(), v.data(), sizeof(double) * v.size());
+          return a;
+        };
+        auto rows = [](const std::vector<ex::PredictionErrors>& v) {
+          py::list l;
+          for (const auto& e : v)
+            l.append(py::make_tuple(e.file, e.horizon, e.steps, e.dim, e.median, e.p90, e.n));
+          return l;
+        };
+        py::dict d;
+        d["directory"] = run->directory.string();
+        d["model_type"] = r.model_type;
+        d["state_names"] = r.state_names;
+        d["action_names"] = r.action_names;
+        d["dt"] = r.dt;
+        d["transitions"] = r.transitions;
+        d["points"] = r.points;
+        d["phi_names"] = r.phi_names;
+        d["phi_start"] = vec(r.phi_start);
+        d["phi"] = vec(r.phi);
+        d["phi_lower95"] = vec(r.phi_lower95);
+        d["phi_upper95"] = vec(r.phi_upper95);
+        d["phi_tunable"] = std::vector<bool>(r.phi_tunable.begin(), r.phi_tunable.end());
+        d["errors"] = rows(r.errors);
+        d["prior_errors"] = rows(r.prior_errors);
+        d["validation"] = run->options.validation.size();
+        std::vector<std::string> files;
+        for (const auto& f : run->options.validation) files.push_back(f.string());
+        d["validation_files"] = files;
+        d["horizons"] = run->options.horizons;
+        d["learn_seconds"] = r.learn_seconds;
+        d["brief"] = r.BriefReport();
+        return d;
+      },
+      py::arg("config"), py::arg("overrides"), py::arg("quiet"), py::arg("progress"),
+      "drops.identify's C++ side (experiment::identify_from_settings, as `drops identify`): "
+      "returns a dict of the summary (phi as arrays, error rows as tuples).");
   m.def(
       "_config",
       [](const std::string& config, const std::vector<std::string>& overrides) {

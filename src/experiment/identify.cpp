@@ -5,15 +5,20 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
+#include "drops/experiment/experiment.hpp"
+#include "drops/experiment/registry.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "drops/model/dataset.hpp"
+#include "drops/model/gp_dynamics.hpp"
+#include "drops/model/simulator_model.hpp"
 
 namespace drops::experiment {
 
@@ -99,14 +104,15 @@ bool IdentifyOptions::IsValid(std::string* why) const {
       return fail(fmt::format("identify.horizons: {} s is shorter than dt = {} s", h, log.dt));
     const int n = steps_of(h, log.dt);
     if (n <= last)
-      return fail(fmt::format("identify.horizons: {} s is not longer than the one before it "
-                              "(in steps of dt = {} s)",
-                              h, log.dt));
+      return fail(
+          fmt::format("identify.horizons: {} s is not longer than the one before it "
+                      "(in steps of dt = {} s)",
+                      h, log.dt));
     last = n;
   }
   if (!std::isfinite(start_spacing) || start_spacing < log.dt * (1 - 1e-9))
-    return fail(fmt::format("identify.start_spacing: {} s is shorter than dt = {} s",
-                            start_spacing, log.dt));
+    return fail(fmt::format("identify.start_spacing: {} s is shorter than dt = {} s", start_spacing,
+                            log.dt));
   if (max_points < 0) return fail(fmt::format("identify.max_points: {} < 0", max_points));
   if (threads < 0) return fail(fmt::format("threads: {} < 0", threads));
   return true;
@@ -122,9 +128,10 @@ MatrixXd open_loop_rollout(const model::DynamicsModel& model, const VectorXd& x0
     const VectorXd u = actions.row(k).transpose();
     model.predict(x, u, p);
     if (p.mean.size() != x.size())
-      throw InvalidArgument(fmt::format("open_loop_rollout: the model predicts dim {}, the state "
-                                        "has dim {}",
-                                        p.mean.size(), x.size()));
+      throw InvalidArgument(
+          fmt::format("open_loop_rollout: the model predicts dim {}, the state "
+                      "has dim {}",
+                      p.mean.size(), x.size()));
     x += p.mean;
     out.row(k + 1) = x.transpose();
   }
@@ -137,8 +144,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
                                                 double start_spacing) {
   const double dt = log.dt;
   if (!(start_spacing >= dt * (1 - 1e-9)))
-    throw InvalidArgument(fmt::format("prediction_errors: start spacing {} s < dt {} s",
-                                      start_spacing, dt));
+    throw InvalidArgument(
+        fmt::format("prediction_errors: start spacing {} s < dt {} s", start_spacing, dt));
   const int E = static_cast<int>(log.state_names.size());
   // Horizons in steps, the one-step errors first (start spacing: one step).
   std::vector<int> steps = {1};
@@ -163,7 +170,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
       if (starts.empty()) continue;
       const auto B = static_cast<Eigen::Index>(starts.size());
       MatrixXd X(B, E), U(B, seg.u.cols()), mean, var;
-      for (Eigen::Index b = 0; b < B; ++b) X.row(b) = seg.x.row(starts[static_cast<std::size_t>(b)]);
+      for (Eigen::Index b = 0; b < B; ++b)
+        X.row(b) = seg.x.row(starts[static_cast<std::size_t>(b)]);
       for (int j = 0; j < n; ++j) {
         for (Eigen::Index b = 0; b < B; ++b)
           U.row(b) = seg.u.row(starts[static_cast<std::size_t>(b)] + j);
@@ -172,8 +180,7 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
       }
       for (Eigen::Index b = 0; b < B; ++b)
         for (int i = 0; i < E; ++i) {
-          const double e =
-              std::abs(X(b, i) - seg.x(starts[static_cast<std::size_t>(b)] + n, i));
+          const double e = std::abs(X(b, i) - seg.x(starts[static_cast<std::size_t>(b)] + n, i));
           errs[h][static_cast<std::size_t>(i)].push_back(std::isfinite(e) ? e : kInf);
         }
     }
@@ -197,9 +204,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
 }
 
 IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog>& fit,
-                        const std::vector<RecordedLog>& validation,
-                        const IdentifyOptions& options, const IdentifyMessage& message,
-                        const model::ModelProgress& progress) {
+                        const std::vector<RecordedLog>& validation, const IdentifyOptions& options,
+                        const IdentifyMessage& message, const model::ModelProgress& progress) {
   std::string why;
   if (!options.IsValid(&why)) throw InvalidArgument(why);
   if (fit.empty()) throw InvalidArgument("identify: no fit log");
@@ -229,21 +235,23 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
         what.task->name(), what.task->state_dim(), what.task->action_dim(), E,
         fmt::join(first.state_names, ", "), U, fmt::join(first.action_names, ", ")));
   if (std::abs(what.task->dt() - dt) > 1e-9 * dt)
-    throw InvalidArgument(fmt::format("identify: the task's dt is {} s, the logs are resampled "
-                                      "to {} s (identify.dt / the log options' dt)",
-                                      what.task->dt(), dt));
+    throw InvalidArgument(
+        fmt::format("identify: the task's dt is {} s, the logs are resampled "
+                    "to {} s (identify.dt / the log options' dt)",
+                    what.task->dt(), dt));
   const bool uses_prior = what.factory ? what.uses_prior : model::uses_prior(what.options.type);
   if (uses_prior) {
     if (!what.prior)
       throw InvalidArgument("identify: model.type " + what.type + " needs a prior; none given");
     if (what.prior->state_dim() != E || what.prior->action_dim() != U)
-      throw InvalidArgument(fmt::format(
-          "identify: the prior has state dim {} and action dim {}, the logs {} and {}",
-          what.prior->state_dim(), what.prior->action_dim(), E, U));
+      throw InvalidArgument(
+          fmt::format("identify: the prior has state dim {} and action dim {}, the logs {} and {}",
+                      what.prior->state_dim(), what.prior->action_dim(), E, U));
     if (what.prior_dt > 0 && std::abs(what.prior_dt - dt) > 1e-9 * dt)
-      throw InvalidArgument(fmt::format("identify: the prior integrates over dt = {} s, the logs "
-                                        "are resampled to {} s: set the same control period",
-                                        what.prior_dt, dt));
+      throw InvalidArgument(
+          fmt::format("identify: the prior integrates over dt = {} s, the logs "
+                      "are resampled to {} s: set the same control period",
+                      what.prior_dt, dt));
     what.parameters.check();
   }
 
@@ -273,7 +281,8 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
   const model::PriorParameters params = uses_prior ? what.parameters : model::PriorParameters{};
   res.model = what.factory ? what.factory(mo, what.task, prior, params)
                            : model::make_model(mo, what.task, prior, params);
-  if (!res.model) throw InvalidArgument("identify: the model factory of " + what.type + " gave none");
+  if (!res.model)
+    throw InvalidArgument("identify: the model factory of " + what.type + " gave none");
   say(fmt::format("learning {} on {} of {} transitions ({} fit log{})", what.type, s.points,
                   s.transitions, fit.size(), fit.size() == 1 ? "" : "s"));
   s.model = res.model->learn(res.data, progress);
@@ -309,8 +318,8 @@ IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog
   if (uses_prior) prior_model = model::make_prior_only_model(what.prior, what.parameters);
   for (const auto& l : validation) {
     say("validating on " + l.report.source);
-    auto e = prediction_errors(*res.model, l, l.report.source, options.horizons,
-                               options.start_spacing);
+    auto e =
+        prediction_errors(*res.model, l, l.report.source, options.horizons, options.start_spacing);
     s.errors.insert(s.errors.end(), e.begin(), e.end());
     if (prior_model) {
       e = prediction_errors(*prior_model, l, l.report.source, options.horizons,
@@ -344,14 +353,14 @@ IdentifyResult identify(const IdentifyModel& what, const IdentifyOptions& option
 
 std::string IdentifySummary::BriefReport() const {
   std::ostringstream o;
-  o << fmt::format("{}: {} of {} transitions (dt {} s) from {} fit log(s); learning {:.1f} s, "
-                   "validation {:.1f} s\n",
-                   model_type, points, transitions, dt, fit_reports.size(), learn_seconds,
-                   validation_seconds);
+  o << fmt::format(
+      "{}: {} of {} transitions (dt {} s) from {} fit log(s); learning {:.1f} s, "
+      "validation {:.1f} s\n",
+      model_type, points, transitions, dt, fit_reports.size(), learn_seconds, validation_seconds);
   for (Eigen::Index i = 0; i < phi.size(); ++i) {
     if (!phi_tunable[static_cast<std::size_t>(i)]) continue;
-    o << fmt::format("  {} = {:.6g} (start {:.6g}", phi_names[static_cast<std::size_t>(i)],
-                     phi[i], phi_start[i]);
+    o << fmt::format("  {} = {:.6g} (start {:.6g}", phi_names[static_cast<std::size_t>(i)], phi[i],
+                     phi_start[i]);
     if (std::isfinite(phi_lower95[i]))
       o << fmt::format(", 95% [{:.6g}, {:.6g}]", phi_lower95[i], phi_upper95[i]);
     o << ")\n";
@@ -375,9 +384,8 @@ std::string IdentifySummary::BriefReport() const {
 
 namespace {
 
-KeySpec key(std::string name, std::string type, std::string def, std::string unit,
-            std::string doc, double min = 0, double max = 0,
-            std::vector<std::string> allowed = {}) {
+KeySpec key(std::string name, std::string type, std::string def, std::string unit, std::string doc,
+            double min = 0, double max = 0, std::vector<std::string> allowed = {}) {
   KeySpec k;
   k.key = std::move(name);
   k.type = std::move(type);
@@ -394,8 +402,6 @@ std::string num(double v) {
   if (!std::isfinite(v)) return "";
   return fmt::format("{}", v);
 }
-
-nlohmann::json jnum(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 }  // namespace
 
@@ -414,8 +420,9 @@ const std::vector<KeySpec>& identify_keys() {
                     "drops identify: the logs' time column (units: identify.time_scale s)"));
     v.push_back(key("identify.columns.state", "list", "[]", "-",
                     "drops identify: the column of each state, in the task's state order; "
-                    "d/dt(COLUMN) is the smoothed derivative of COLUMN (docs/logs.md); [] = the "
-                    "task's state names"));
+                    "d/dt(COLUMN) is the smoothed derivative of COLUMN, VEL=d/dt(COLUMN) the "
+                    "logged velocity VEL checked against it (degrees, sign; docs/logs.md); [] = "
+                    "the task's state names"));
     v.push_back(key("identify.columns.angles", "list", "[]", "-",
                     "drops identify: the state columns that hold angles in rad (unwrapped, "
                     "checked for degrees)"));
@@ -436,8 +443,8 @@ const std::vector<KeySpec>& identify_keys() {
                     "drops identify: window of the Savitzky-Golay derivative of d/dt states", 0,
                     1e3));
     v.push_back(key("identify.horizons", "numbers", "[0.1, 0.5, 1]", "s",
-                    "drops identify: open-loop horizons of the validation errors, ascending",
-                    1e-9, 1e6));
+                    "drops identify: open-loop horizons of the validation errors, ascending", 1e-9,
+                    1e6));
     v.push_back(key("identify.start_spacing", "double", num(d.start_spacing), "s",
                     "drops identify: time between open-loop start points", 1e-9, 1e6));
     v.push_back(key("identify.max_points", "int", "0", "-",
@@ -478,10 +485,21 @@ IdentifyOptions identify_options(const Settings& st, double dt,
   for (std::size_t i = 0; i < state.size(); ++i) {
     LogState ls;
     const std::string& c = state[i];
-    if (c.rfind("d/dt(", 0) == 0 && c.size() > 6 && c.back() == ')') {
+    const std::size_t eq = c.find('=');
+    const std::string rate = eq == std::string::npos ? c : c.substr(eq + 1);
+    const bool is_rate = rate.rfind("d/dt(", 0) == 0 && rate.size() > 6 && rate.back() == ')';
+    if (eq != std::string::npos && (!is_rate || eq == 0))
+      throw ConfigError("config key 'identify.columns.state': '" + c +
+                        "' is not COLUMN=d/dt(STATE) (a logged velocity checked against the "
+                        "derivative of STATE)");
+    if (is_rate) {
       ls.quantity = LogQuantity::kVelocity;
-      ls.of = c.substr(5, c.size() - 6);
-      ls.name = state_names[i];
+      ls.of = rate.substr(5, rate.size() - 6);
+      if (eq == std::string::npos) {
+        ls.name = state_names[i];  // derived: no column
+      } else {
+        ls.column = c.substr(0, eq);  // logged, its units checked against the derivative
+      }
     } else {
       ls.column = c;
       ls.quantity = std::find(angles.begin(), angles.end(), c) != angles.end()
@@ -535,8 +553,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     std::string t = "model,file,horizon,steps,dim,state,median,p90,n\n";
     auto rows = [&](const char* m, const std::vector<PredictionErrors>& v) {
       for (const auto& e : v)
-        t += fmt::format("{},{},{},{},{},{},{},{},{}\n", m, e.file, num(e.horizon), e.steps,
-                         e.dim, e.state, e.median, e.p90, e.n);
+        t += fmt::format("{},{},{},{},{},{},{},{},{}\n", m, e.file, num(e.horizon), e.steps, e.dim,
+                         e.state, e.median, e.p90, e.n);
     };
     rows("learned", s.errors);
     rows("prior", s.prior_errors);
@@ -554,7 +572,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     j["phi_names"] = s.phi_names;
     j["phi"] = std::vector<double>(st.phi.data(), st.phi.data() + st.phi.size());
     nlohmann::json h = nlohmann::json::array();
-    for (const auto& v : st.h_params) h.push_back(std::vector<double>(v.data(), v.data() + v.size()));
+    for (const auto& v : st.h_params)
+      h.push_back(std::vector<double>(v.data(), v.data() + v.size()));
     j["h_params"] = h;
     j["data"] = "data.csv";
     j["points"] = s.points;
@@ -643,8 +662,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
       o << "\n## phi\n\n| name | start | learned | 95% interval |\n|---|---|---|---|\n";
       for (Eigen::Index i = 0; i < s.phi.size(); ++i) {
         if (!s.phi_tunable[static_cast<std::size_t>(i)]) continue;
-        o << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n", s.phi_names[static_cast<std::size_t>(i)],
-                         s.phi_start[i], s.phi[i],
+        o << fmt::format("| {} | {:.6g} | {:.6g} | {} |\n",
+                         s.phi_names[static_cast<std::size_t>(i)], s.phi_start[i], s.phi[i],
                          std::isfinite(s.phi_lower95[i])
                              ? fmt::format("[{:.6g}, {:.6g}]", s.phi_lower95[i], s.phi_upper95[i])
                              : std::string("- (at a bound, or no posterior)"));
@@ -657,20 +676,174 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
       o << "|---|---|---|---|---|---|\n";
       for (std::size_t k = 0; k < s.errors.size(); ++k) {
         const auto& e = s.errors[k];
-        o << fmt::format("| {} | {} | {} | {:.4g} / {:.4g} | {} | {} |\n",
-                         fs::path(e.file).filename().string(), e.horizon, e.state, e.median,
-                         e.p90,
-                         k < s.prior_errors.size()
-                             ? fmt::format("{:.4g} / {:.4g}", s.prior_errors[k].median,
-                                           s.prior_errors[k].p90)
-                             : std::string("-"),
-                         e.n);
+        o << fmt::format(
+            "| {} | {} | {} | {:.4g} / {:.4g} | {} | {} |\n", fs::path(e.file).filename().string(),
+            e.horizon, e.state, e.median, e.p90,
+            k < s.prior_errors.size()
+                ? fmt::format("{:.4g} / {:.4g}", s.prior_errors[k].median, s.prior_errors[k].p90)
+                : std::string("-"),
+            e.n);
       }
     }
     o << "\n## Model\n\n" << s.model.BriefReport() << "\n";
     put("report.md", o.str());
   }
   return written;
+}
+
+}  // namespace drops::experiment
+
+// ---------------------------------------------------------------------------------------------
+
+namespace drops::experiment {
+
+IdentifyRun identify_from_settings(const Registry& registry, const Settings& settings,
+                                   const IdentifyMessage& message,
+                                   const model::ModelProgress& progress) {
+  const BaseOptions base = base_options(settings);
+  const std::string task_name = settings.at("task");
+  TaskSetup setup = registry.task(task_name).make(settings);
+  const ModelVariant& variant = registry.model_variant(base.model_type);
+  IdentifyModel what;
+  what.type = variant.name;
+  what.factory = variant.factory;
+  what.uses_prior = variant.uses_prior;
+  what.options = black_drops_options(registry, settings).model;
+  what.task = setup.task;
+  what.prior = setup.prior;
+  what.parameters = setup.prior_parameters;
+  std::vector<std::string> states = setup.state_names, actions = setup.action_names;
+  for (int i = static_cast<int>(states.size()); i < setup.task->state_dim(); ++i)
+    states.push_back("x_" + std::to_string(i + 1));
+  for (int i = static_cast<int>(actions.size()); i < setup.task->action_dim(); ++i)
+    actions.push_back("u_" + std::to_string(i + 1));
+  IdentifyRun run;
+  run.options = identify_options(settings, setup.task->dt(), states, actions);
+  const std::string name =
+      base.name.empty() ? fmt::format("identify-{}-{}", task_name, variant.name) : base.name;
+  if (!is_directory_name(name))
+    throw ConfigError("config key 'name' = '" + name + "' is not a directory name");
+  run.directory = std::filesystem::path(base.output) / name;
+  if (message)
+    message(fmt::format("task {}, model {}, dt {} s, {} fit and {} validation log(s)", task_name,
+                        variant.name, setup.task->dt(), run.options.logs.size(),
+                        run.options.validation.size()));
+  run.result = identify(what, run.options, message, progress);
+  run.files =
+      write_identify_directory(run.directory, run.result, run.options, to_yaml(registry, settings));
+  return run;
+}
+
+namespace {
+
+std::vector<double> split_numbers(const std::string& line, const std::string& where) {
+  std::vector<double> v;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(cell.c_str(), &end);
+    if (cell.empty() || end == cell.c_str() || *end != '\0' || !std::isfinite(x))
+      throw Error(where + ": '" + cell + "' is not a finite number");
+    v.push_back(x);
+  }
+  return v;
+}
+
+std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) throw Error(p.string() + ": cannot be read");
+  std::ostringstream o;
+  o << in.rdbuf();
+  return o.str();
+}
+
+}  // namespace
+
+std::unique_ptr<model::DynamicsModel> load_identified_model(const std::filesystem::path& dir,
+                                                            const IdentifyModel& what) {
+  const std::filesystem::path mj = dir / "model.json";
+  const std::string src = mj.string();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_text(mj));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(src + ": not JSON (" + e.what() + ")");
+  }
+  auto field = [&](const char* k) -> const nlohmann::json& {
+    if (!j.contains(k)) throw Error(src + ": no '" + std::string(k) + "'");
+    return j.at(k);
+  };
+  try {
+    if (field("format").get<std::string>() != "drops-identified-model-1")
+      throw Error(src + ": format '" + field("format").get<std::string>() +
+                  "', expected 'drops-identified-model-1'");
+    if (field("type").get<std::string>() != what.type)
+      throw Error(src + ": a '" + field("type").get<std::string>() +
+                  "' model; the model described is '" + what.type + "'");
+    if (!what.task) throw InvalidArgument("load_identified_model: the model has no task");
+    const auto states = field("state_names").get<std::vector<std::string>>();
+    const auto actions = field("action_names").get<std::vector<std::string>>();
+    const int E = what.task->state_dim(), U = what.task->action_dim();
+    if (static_cast<int>(states.size()) != E || static_cast<int>(actions.size()) != U)
+      throw Error(fmt::format("{}: {} states and {} actions; the task has {} and {}", src,
+                              states.size(), actions.size(), E, U));
+    const double dt = field("dt").get<double>();
+    if (std::abs(dt - what.task->dt()) > 1e-12 * std::max(1.0, dt))
+      throw Error(fmt::format("{}: dt = {} s; the task's is {} s", src, dt, what.task->dt()));
+    model::ModelState st;
+    const auto phi = field("phi").get<std::vector<double>>();
+    st.phi = Eigen::Map<const VectorXd>(phi.data(), static_cast<Eigen::Index>(phi.size()));
+    for (const auto& h : field("h_params")) {
+      const auto v = h.get<std::vector<double>>();
+      st.h_params.push_back(
+          Eigen::Map<const VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+    }
+    // data.csv: x (E), u (U), dx (E) per row, after a header of those names.
+    const std::filesystem::path dp = dir / field("data").get<std::string>();
+    std::stringstream text(read_text(dp));
+    std::string line;
+    std::getline(text, line);
+    std::vector<std::string> expected;
+    for (const auto& n : states) expected.push_back(n);
+    for (const auto& n : actions) expected.push_back(n);
+    for (const auto& n : states) expected.push_back("d_" + n);
+    if (line != fmt::format("{}", fmt::join(expected, ",")))
+      throw Error(fmt::format("{}: line 1 is '{}', expected '{}'", dp.string(), line,
+                              fmt::join(expected, ",")));
+    std::vector<Transition> data;
+    for (int row = 2; std::getline(text, line); ++row) {
+      if (line.empty()) continue;
+      const auto v = split_numbers(line, fmt::format("{}: line {}", dp.string(), row));
+      if (static_cast<int>(v.size()) != 2 * E + U)
+        throw Error(fmt::format("{}: line {} has {} values, expected {}", dp.string(), row,
+                                v.size(), 2 * E + U));
+      Transition t;
+      t.x = Eigen::Map<const VectorXd>(v.data(), E);
+      t.u = Eigen::Map<const VectorXd>(v.data() + E, U);
+      t.dx = Eigen::Map<const VectorXd>(v.data() + E + U, E);
+      data.push_back(std::move(t));
+    }
+    const bool uses_prior = what.factory ? what.uses_prior : model::uses_prior(what.options.type);
+    std::shared_ptr<const model::MeanFunction> prior = uses_prior ? what.prior : nullptr;
+    const model::PriorParameters params = uses_prior ? what.parameters : model::PriorParameters{};
+    std::unique_ptr<model::DynamicsModel> m =
+        what.factory ? what.factory(what.options, what.task, prior, params)
+                     : model::make_model(what.options, what.task, prior, params);
+    if (!m) throw InvalidArgument("load_identified_model: the model factory gave none");
+    m->restore(st);
+    if (auto* gp = dynamic_cast<model::GpDynamicsModel*>(m.get())) {
+      if (data.empty()) throw Error(dp.string() + ": no transitions");
+      gp->condition(data);
+    } else if (!dynamic_cast<model::SimulatorModel*>(m.get())) {
+      throw InvalidArgument("load_identified_model: a '" + what.type +
+                            "' model is neither a GP model nor the prior alone; it cannot be "
+                            "conditioned without learning");
+    }
+    return m;
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(src + ": " + e.what());
+  }
 }
 
 }  // namespace drops::experiment

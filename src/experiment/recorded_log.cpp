@@ -78,8 +78,10 @@ std::string column_list(const std::vector<std::string>& columns) {
 
 [[noreturn]] void missing_column(const std::string& source, const std::string& name,
                                  const std::string& role, const std::vector<std::string>& cols) {
-  throw Error(fmt::format("{}: no column {} (declared as {}); its columns are: {}", source,
-                          shown_name(name), role, column_list(cols)));
+  // A ConfigError (a drops::Error): the declaration, not the file, is what to change, and
+  // `drops identify` exits with 2 for it.
+  throw ConfigError(fmt::format("{}: no column {} (declared as {}); its columns are: {}", source,
+                                shown_name(name), role, column_list(cols)));
 }
 
 std::string role_of(const LogColumns& c, const std::string& column) {

@@ -159,7 +159,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   const int search_points =
       options_.gp_mi.max_points > 0 ? std::min(options_.gp_mi.max_points, d.size()) : d.size();
   // GP-MI (Algorithm 2): phi, warm-started from the previous episode's phi and kernels.
-  if (options_.type == ModelType::kGpMi && !params_.tunable.empty()) {
+  if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_) {
     activate(M > 0 && search_points > M);
     const GpMiSummary mi =
         sparse_active_
@@ -181,6 +181,10 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
     throw NumericalError("the simulator prior returned non-finite values at phi = [" +
                          format_phi(phi_) + "] on the recorded data");
   activate(M > 0 && d.size() > M);
+  if (sparse_active_ && condition_only_)
+    throw InvalidArgument(
+        "a model with sparse GPs (model.inducing_points below its " + std::to_string(d.size()) +
+        " points) cannot be conditioned on saved data without a fit: only exact GPs can");
   if (sparse_active_) {
     s.log_likelihoods =
         fit_output_gps(sparse_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
@@ -193,8 +197,17 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
     s.seconds = seconds_since(t0);
     return s;
   }
-  s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
-  if (options_.type == ModelType::kGpMi && !params_.tunable.empty())
+  if (condition_only_) {
+    s.log_likelihoods.resize(E_);
+    for (int i = 0; i < E_; ++i) {
+      auto& g = gps_[static_cast<std::size_t>(i)];
+      g.compute(d.gp_in, targets.col(i));
+      s.log_likelihoods[i] = g.log_marginal_likelihood();
+    }
+  } else {
+    s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
+  }
+  if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_)
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);
   // Variances from a subset (ModelOptions::variance_points), chosen on the fitted kernels
   // (gp::greedy_variance_subset): its rows go last, in order, after the others in order, and the
@@ -233,6 +246,18 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   s.phi = phi_;
   s.seconds = seconds_since(t0);
   return s;
+}
+
+ModelSummary GpDynamicsModel::condition(const std::vector<Transition>& data) {
+  condition_only_ = true;
+  try {
+    ModelSummary s = learn(data);
+    condition_only_ = false;
+    return s;
+  } catch (...) {
+    condition_only_ = false;
+    throw;
+  }
 }
 
 void GpDynamicsModel::clear_samples() {

@@ -140,7 +140,7 @@ struct IdentifySummary {
 struct IdentifyResult {
   IdentifySummary summary;
   std::unique_ptr<model::DynamicsModel> model;
-  std::vector<Transition> data;        ///< the transitions the model learned from
+  std::vector<Transition> data;              ///< the transitions the model learned from
   std::vector<RecordedLog> fit, validation;  ///< the logs as resampled
 };
 
@@ -167,8 +167,8 @@ std::vector<PredictionErrors> prediction_errors(const model::DynamicsModel& mode
 /// invalid options or a model description that does not fit the logs (dimensions, dt, a
 /// missing prior; the message names the item), drops::Error from the model's learning.
 IdentifyResult identify(const IdentifyModel& what, const std::vector<RecordedLog>& fit,
-                        const std::vector<RecordedLog>& validation,
-                        const IdentifyOptions& options, const IdentifyMessage& message = nullptr,
+                        const std::vector<RecordedLog>& validation, const IdentifyOptions& options,
+                        const IdentifyMessage& message = nullptr,
                         const model::ModelProgress& progress = nullptr);
 
 /// The same reading options.logs and options.validation (read_log with options.columns and
@@ -206,5 +206,35 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
                                                             const IdentifyResult& result,
                                                             const IdentifyOptions& options,
                                                             const std::string& config_yaml);
+
+/// `drops identify`'s whole work, shared by the command line and Python's drops.identify: the
+/// task of settings' `task` gives the prior, its parameters and the state and action names,
+/// model.* the variant, identify.* the logs (identify_options); identify() runs and the
+/// directory <output>/<name>/ (default name identify-<task>-<model.type>) is written
+/// (write_identify_directory). Throws ConfigError for a bad key or value, or a log without a
+/// declared column (the message names the file and the column); drops::Error for a log's other
+/// errors (file, line, column) and the model's learning; nothing is written before the learning
+/// is done. Not thread-safe (one identify at a time: the thread limit is process-wide).
+struct IdentifyRun {
+  IdentifyResult result;
+  IdentifyOptions options;
+  std::filesystem::path directory;           ///< <output>/<name>
+  std::vector<std::filesystem::path> files;  ///< the files written
+};
+IdentifyRun identify_from_settings(const Registry& registry, const Settings& settings,
+                                   const IdentifyMessage& message = nullptr,
+                                   const model::ModelProgress& progress = nullptr);
+
+/// A model saved by write_identify_directory, loaded again: model.json's type, names, dt, phi
+/// and kernel hyper-parameters with data.csv's transitions. `what` describes the model as
+/// identify() was given it (type, factory, options, task, prior, parameters: the same task and
+/// prior); the model is conditioned on the saved data at the saved phi and kernels without any
+/// search (model::GpDynamicsModel::condition; for mi, the prior at phi), so its predictions
+/// equal the fitted model's (to rounding: the data are stored with 17 digits). Throws
+/// drops::Error naming the file and the item for a file that cannot be read, another format, or
+/// names, dimensions or dt that differ from `what`'s; InvalidArgument from the model. Not
+/// thread-safe; the model's predict() is thread-safe after it returns.
+std::unique_ptr<model::DynamicsModel> load_identified_model(const std::filesystem::path& dir,
+                                                            const IdentifyModel& what);
 
 }  // namespace drops::experiment

@@ -207,8 +207,8 @@ struct RecordedLog {
 
 /// Reads the CSV log at `path` (read_file_text: a regular file of at most kMaxRunFileBytes) and
 /// resamples it (resample_log). Throws drops::Error naming the file: it cannot be read, a line has
-/// fewer cells than the header, a declared column is missing (the message lists the file's
-/// columns) or named twice in the header, a cell is not a number (line and column), and every
+/// fewer cells than the header, a declared column is missing (a drops::ConfigError, the message
+/// listing the file's columns) or named twice in the header, a cell is not a number (line and column), and every
 /// error of resample_log; drops::InvalidArgument for an invalid declaration or options.
 RecordedLog read_log(const std::filesystem::path& path, const LogColumns& columns,
                      const LogOptions& options = {});

@@ -35,6 +35,12 @@ class GpDynamicsModel final : public DynamicsModel {
   /// (2 data.size() rows; ModelSummary::points counts the recorded ones).
   ModelSummary learn(const std::vector<Transition>& data,
                      const ModelProgress& progress = nullptr) override;
+  /// The output GPs conditioned on `data` at the current phi() and kernels (those of restore())
+  /// without any search: what learn() does after its phi search and kernel fits (the residual
+  /// targets, the variance subset, the reflections), so that a saved model (state() and its
+  /// data) predicts again exactly (experiment::load_identified_model). No phi posterior (the
+  /// summary's is empty). Throws as learn(). Not thread-safe.
+  ModelSummary condition(const std::vector<Transition>& data);
   void predict(const VectorXd& x, const VectorXd& u, Prediction& out) const override;
   void predict_batch(const MatrixXd& X, const MatrixXd& U, MatrixXd& mean,
                      MatrixXd& var) const override;
@@ -84,6 +90,7 @@ class GpDynamicsModel final : public DynamicsModel {
   PhiPosterior posterior_;
   std::vector<VectorXd> sample_phi_;           // S full phi
   std::vector<MatrixXd> sample_weights_;       // per output: N x S, K^-1 (dx - M(X; phi_s))
+  bool condition_only_ = false;  // condition(): learn() without the phi search and the fits
   void clear_samples();
 };
 
