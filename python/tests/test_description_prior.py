@@ -155,3 +155,18 @@ def test_a_plain_prior_still_needs_a_value():
 
     with pytest.raises(TypeError, match=r"m.value: None \(only a drops.DescriptionPrior"):
         drops.run(task=example.SwingUp(), system=example.RealPendulum(), prior=P())
+
+
+def test_a_builtin_task_takes_its_prior_from_a_file_given_by_the_configuration(tmp_path):
+    # configs/pendubot-gp_mi-file.yaml: the pendubot with tasks/pendubot/data/pendubot.xml as
+    # prior.model, resolved by the module's description-prior factory as by the command line.
+    config = SOURCE_DIR / "configs" / "pendubot-gp_mi-file.yaml"
+    resolved = drops.config(str(config))
+    assert "pendubot.xml" in resolved and "Link2.com.z" in resolved
+    out = drops.run(str(config), {"episodes": 1, "optimizer.max_evaluations": 50}, seed=1,
+                    output=tmp_path, name="file", **QUIET)
+    assert out.status == "complete"
+    run = drops.read_run(out.directory)
+    assert "Link2.com.z" in run.phi_names
+    with pytest.raises(drops.Error, match="Link9"):
+        drops.config(str(config), {"prior.parameters": "[{name: Link9.mass, bounds: [0.1, 1]}]"})
