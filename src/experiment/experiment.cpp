@@ -153,6 +153,10 @@ class BlackDropsPlugin final : public AlgorithmPlugin {
     if (o.uses_prior() && !setup.prior)
       throw ConfigError("config key 'model.type' = '" + s.at("model.type") +
                         "': this task has no simulator prior; use model.type gp");
+    if (o.balance.mode != control::BalanceMode::kOff && setup.task && !setup.task->goal())
+      throw ConfigError("config key 'policy.balance.mode' = '" + s.at("policy.balance.mode") +
+                        "': the task '" + setup.task->name() +
+                        "' declares no goal state; use policy.balance.mode off");
     return std::make_unique<algo::BlackDrops>(o);
   }
 
