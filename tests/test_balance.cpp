@@ -7,6 +7,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Eigenvalues>
+
 #include "drops/control/balance.hpp"
 #include "drops/core/errors.hpp"
 #include "drops/pendubot/pendubot.hpp"
@@ -16,14 +18,16 @@ using namespace drops;
 
 namespace {
 
-// The plain Riccati iteration P <- Q + A'PA - A'PB (R + B'PB)^-1 B'PA from P = Q, to convergence.
+// The plain Riccati iteration P <- Q + A'PA - A'PB (R + B'PB)^-1 B'PA from P = Q, to convergence
+// (P = Q >= 0 converges to the stabilising solution for a stabilisable, detectable pair).
 MatrixXd riccati_iteration(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q,
                            const MatrixXd& R) {
   MatrixXd P = Q;
   for (int k = 0; k < 100000; ++k) {
     const MatrixXd S = R + B.transpose() * P * B;
-    const MatrixXd next = Q + A.transpose() * P * A -
-                          A.transpose() * P * B * S.ldlt().solve(B.transpose() * P * A);
+    MatrixXd next = Q + A.transpose() * P * A -
+                    A.transpose() * P * B * S.ldlt().solve(B.transpose() * P * A);
+    next = 0.5 * (next + next.transpose());  // else round-off grows along the unstable modes
     const double change = (next - P).norm();
     P = next;
     if (change < 1e-14 * std::max(1.0, P.norm())) break;
@@ -231,7 +235,7 @@ TEST(Balance, BlackDropsRecordsTheGainAndRunsTheHybrid) {
   std::vector<algo::EpisodeRecord> recs;
   algo::Callbacks cb;
   cb.on_episode = [&](const algo::EpisodeRecord& r) { recs.push_back(r); };
-  exp.algorithm->run(exp.setup.problem(), cb);
+  exp.runner->run(exp.setup.problem(), cb);
   ASSERT_EQ(recs.size(), 2u);
   for (const auto& r : recs) {
     const auto& n = r.details.numbers;
@@ -245,6 +249,8 @@ TEST(Balance, BlackDropsRecordsTheGainAndRunsTheHybrid) {
   control::BalanceOptions bo;
   const auto c = control::make_balance_controller(task, *true_pendubot_model({}), bo);
   EXPECT_NEAR(recs[0].details.numbers.at("balance_k_0_2"), c.dare.K(0, 2), 1e-9);
-  // A task without a goal is refused with the key's name.
-  EXPECT_NO_THROW(fixtures::experiment({"policy.balance.mode=lqr"}));
+  // exit below enter is refused.
+  EXPECT_THROW(fixtures::experiment({"policy.balance.mode=lqr", "policy.balance.enter=2",
+                                     "policy.balance.exit=1"}),
+               ConfigError);
 }

@@ -26,6 +26,9 @@ algo::BlackDropsOptions black_drops_options(const Registry& registry, const Sett
   const ModelVariant& variant = registry.model_variant(base.model_type);
   a.model_factory = variant.factory;
   a.model_factory_uses_prior = variant.uses_prior;
+  if (!(a.balance.exit >= a.balance.enter))
+    throw ConfigError("config key 'policy.balance.exit' = '" + st.at("policy.balance.exit") +
+                      "': must be >= policy.balance.enter = " + st.at("policy.balance.enter"));
   std::string why;
   if (!a.IsValid(&why)) throw ConfigError("config: " + why);
   return a;
