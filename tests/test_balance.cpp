@@ -4,10 +4,9 @@
 // policy.balance.mode lqr.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <numbers>
-
-#include <Eigen/Eigenvalues>
 
 #include "drops/control/balance.hpp"
 #include "drops/core/errors.hpp"
@@ -25,8 +24,8 @@ MatrixXd riccati_iteration(const MatrixXd& A, const MatrixXd& B, const MatrixXd&
   MatrixXd P = Q;
   for (int k = 0; k < 100000; ++k) {
     const MatrixXd S = R + B.transpose() * P * B;
-    MatrixXd next = Q + A.transpose() * P * A -
-                    A.transpose() * P * B * S.ldlt().solve(B.transpose() * P * A);
+    MatrixXd next =
+        Q + A.transpose() * P * A - A.transpose() * P * B * S.ldlt().solve(B.transpose() * P * A);
     next = 0.5 * (next + next.transpose());  // else round-off grows along the unstable modes
     const double change = (next - P).norm();
     P = next;
@@ -94,7 +93,8 @@ TEST(Dare, MatrixSolutionEqualsThePlainRiccatiIteration) {
   A += 0.8 * MatrixXd::Identity(n, n);  // some eigenvalues outside the unit circle
   const MatrixXd Q = L * L.transpose() + 0.1 * MatrixXd::Identity(n, n);
   const MatrixXd R = MatrixXd::Identity(m, m) * 0.7;
-  const double open_radius = Eigen::EigenSolver<MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
+  const double open_radius =
+      Eigen::EigenSolver<MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
   ASSERT_GT(open_radius, 1.0);
   const auto res = control::solve_dare(A, B, Q, R);
   ASSERT_TRUE(res.converged);
@@ -216,14 +216,14 @@ TEST(Balance, HybridPolicySwitchesWithHysteresisAndResetsAtTheStart) {
   };
   ASSERT_NE(learned(between), lqr(between));
   EXPECT_EQ(act(hybrid, between, 0.0), learned(between));   // not engaged yet
-  EXPECT_EQ(act(hybrid, inside, 0.05), lqr(inside));         // enters
-  EXPECT_EQ(act(hybrid, between, 0.10), lqr(between));       // stays (hysteresis)
-  EXPECT_EQ(act(hybrid, outside, 0.15), learned(outside));   // leaves beyond exit
-  EXPECT_EQ(act(hybrid, between, 0.20), learned(between));   // and needs enter again
+  EXPECT_EQ(act(hybrid, inside, 0.05), lqr(inside));        // enters
+  EXPECT_EQ(act(hybrid, between, 0.10), lqr(between));      // stays (hysteresis)
+  EXPECT_EQ(act(hybrid, outside, 0.15), learned(outside));  // leaves beyond exit
+  EXPECT_EQ(act(hybrid, between, 0.20), learned(between));  // and needs enter again
   EXPECT_EQ(hybrid.balance_steps(), 2);
   EXPECT_EQ(hybrid.first_balance_step(), 1);
   EXPECT_EQ(act(hybrid, inside, 0.25), lqr(inside));
-  EXPECT_EQ(act(hybrid, between, 0.0), learned(between));    // a new episode starts released
+  EXPECT_EQ(act(hybrid, between, 0.0), learned(between));  // a new episode starts released
   EXPECT_EQ(hybrid.balance_steps(), 0);
 }
 
@@ -250,7 +250,7 @@ TEST(Balance, BlackDropsRecordsTheGainAndRunsTheHybrid) {
   const auto c = control::make_balance_controller(task, *true_pendubot_model({}), bo);
   EXPECT_NEAR(recs[0].details.numbers.at("balance_k_0_2"), c.dare.K(0, 2), 1e-9);
   // exit below enter is refused.
-  EXPECT_THROW(fixtures::experiment({"policy.balance.mode=lqr", "policy.balance.enter=2",
-                                     "policy.balance.exit=1"}),
+  EXPECT_THROW(fixtures::experiment(
+                   {"policy.balance.mode=lqr", "policy.balance.enter=2", "policy.balance.exit=1"}),
                ConfigError);
 }

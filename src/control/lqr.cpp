@@ -1,10 +1,9 @@
 #include "drops/control/lqr.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
 
 #include "drops/core/errors.hpp"
 
@@ -45,8 +44,8 @@ DareResult solve_dare(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, c
   for (int k = 1; k <= options.max_iterations; ++k) {
     res.iterations = k;
     const Eigen::PartialPivLU<MatrixXd> W(I + G * H);
-    const MatrixXd WA = W.solve(Ak);      // W^-1 A_k
-    const MatrixXd WG = W.solve(G);       // W^-1 G_k
+    const MatrixXd WA = W.solve(Ak);  // W^-1 A_k
+    const MatrixXd WG = W.solve(G);   // W^-1 G_k
     MatrixXd H1 = H + Ak.transpose() * H * WA;
     MatrixXd G1 = G + Ak * WG * Ak.transpose();
     Ak = Ak * WA;
@@ -66,8 +65,7 @@ DareResult solve_dare(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, c
   res.P = H;
   const MatrixXd S = R + B.transpose() * H * B;
   res.K = S.ldlt().solve(B.transpose() * H * A);
-  const MatrixXd resid =
-      A.transpose() * H * A - H - A.transpose() * H * B * res.K + Q;
+  const MatrixXd resid = A.transpose() * H * A - H - A.transpose() * H * B * res.K + Q;
   res.residual = resid.norm() / std::max(1.0, H.norm());
   const Eigen::VectorXcd ev = Eigen::EigenSolver<MatrixXd>(A - B * res.K, false).eigenvalues();
   res.closed_loop_radius = ev.cwiseAbs().maxCoeff();

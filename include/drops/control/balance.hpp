@@ -107,8 +107,7 @@ class BalancePolicy final : public policy::Policy {
   /// InvalidArgument on a null inner policy, E < 1, a controller whose goal has not dim E and
   /// inner's action dim, or invalid options.
   BalancePolicy(std::unique_ptr<policy::Policy> inner, int E,
-                std::shared_ptr<const BalanceController> controller,
-                const BalanceOptions& options);
+                std::shared_ptr<const BalanceController> controller, const BalanceOptions& options);
   int observation_dim() const override { return inner_->observation_dim() + E_; }
   int action_dim() const override { return inner_->action_dim(); }
   int param_dim() const override { return inner_->param_dim(); }

@@ -23,9 +23,9 @@ struct DareOptions {
 
 /// The solution of a DARE and its LQR gain.
 struct DareResult {
-  MatrixXd P;  ///< the stabilising solution (n x n, symmetric positive semi-definite)
-  MatrixXd K;  ///< the gain (m x n): u = -K x minimises sum x'Qx + u'Ru
-  int iterations = 0;     ///< doubling steps performed
+  MatrixXd P;              ///< the stabilising solution (n x n, symmetric positive semi-definite)
+  MatrixXd K;              ///< the gain (m x n): u = -K x minimises sum x'Qx + u'Ru
+  int iterations = 0;      ///< doubling steps performed
   bool converged = false;  ///< the tolerance was met and P, K are finite
   /// The relative residual ||A'PA - P - A'PB (R + B'PB)^-1 B'PA + Q||_F / max(1, ||P||_F).
   double residual = 0;
