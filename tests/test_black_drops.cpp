@@ -561,3 +561,29 @@ TEST(BlackDropsTrustRegion, TheRadiusFollowsTheRealEpisodesAndSurvivesAResume) {
   saved.extra.clear();  // the trust region is on: its radius must be there
   EXPECT_THROW(resumed_from(ov, saved), InvalidArgument);
 }
+
+// Catch and balance (policy.balance.mode lqr): the gain is a function of the learned model, so a
+// resumed run recomputes the gains and runs the policies of an uninterrupted one; 1 or 2 threads
+// give the same episodes.
+TEST(BlackDropsBalance, AResumedRunRecomputesTheGainsOfAnUninterruptedOne) {
+  const std::vector<std::string> ov = {"episodes=3", "model.type=gp_prior",
+                                       "optimizer.max_evaluations=40",
+                                       "optimizer.prior_optimizations=1",
+                                       "optimizer.reevaluation_rollouts=5",
+                                       "rollouts.predicted=3", "policy.balance.mode=lqr"};
+  const auto r = run(1, ov);
+  ASSERT_EQ(r.size(), 3u);
+  const auto r2 = run(2, ov);
+  ASSERT_EQ(r2.size(), 3u);
+  const auto resumed = resumed_from(ov, state_after(ov, 1));
+  ASSERT_EQ(resumed.size(), 2u);
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    EXPECT_EQ(r2[k].theta, r[k].theta) << "episode " << k + 1;
+    EXPECT_EQ(r2[k].details.numbers, r[k].details.numbers) << "episode " << k + 1;
+  }
+  for (std::size_t k = 0; k < resumed.size(); ++k) {
+    EXPECT_EQ(resumed[k].theta, r[k + 1].theta) << "episode " << k + 2;
+    EXPECT_EQ(resumed[k].details.numbers, r[k + 1].details.numbers) << "episode " << k + 2;
+    EXPECT_EQ(resumed[k].details.numbers.count("balance_k_0_0"), 1u);
+  }
+}

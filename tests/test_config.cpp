@@ -243,7 +243,8 @@ TEST(Config, MarkdownListsEveryKeyOfEveryTask) {
 // The documented ranges are what validation accepts (issue 43): every numeric key of the
 // pendubot's schema at either end of its range builds an experiment, and just outside it is
 // refused naming the key (tests/schema_ranges.hpp). Where two keys constrain each other (a prior's
-// value lies in its search interval, an episode lasts at least three control periods; documented
+// value lies in its search interval, an episode lasts at least three control periods, the balance
+// hands back no sooner than it takes over; documented
 // and named by their messages), the other key makes room.
 TEST(Config, EveryNumericKeyAcceptsBothEndsOfItsDocumentedRangeAndNothingBeyond) {
   const auto all = experiment::schema(registry(), "pendubot");
@@ -252,6 +253,8 @@ TEST(Config, EveryNumericKeyAcceptsBothEndsOfItsDocumentedRangeAndNothingBeyond)
         std::vector<std::string> context;
         if (key == "pendubot.duration") context.push_back("pendubot.dt=0.001");
         if (key == "pendubot.dt") context.push_back("pendubot.duration=100");
+        if (key == "policy.balance.exit") context.push_back("policy.balance.enter=1e-9");
+        if (key == "policy.balance.enter") context.push_back("policy.balance.exit=1e12");
         const std::string prefix = "prior.";
         if (key.rfind(prefix, 0) == 0)
           for (const auto& k : all)

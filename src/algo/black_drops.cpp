@@ -152,6 +152,10 @@ void run_on_real_system(const rollout::Task& task, const rollout::System& real,
   run->set_params(rec.theta);
   Rng rng(derive_seed(options.seed, {static_cast<std::uint64_t>(rec.episode), kRealEpisode}));
   rec.real = rollout::run_episode(task, real, *run, rng);
+  if (const auto* hybrid = dynamic_cast<const control::BalancePolicy*>(run.get())) {
+    rec.details.numbers["balance_steps"] = hybrid->balance_steps();
+    rec.details.numbers["balance_first_step"] = hybrid->first_balance_step();
+  }
   rec.real_return = rec.real.total_return();
   rec.solved = rollout::episode_solved(task, rec.real);
   rec.interaction_time = rec.episode * task.horizon() * task.dt();
@@ -187,6 +191,28 @@ void check_prior_simulates(const rollout::Task& task, const model::PriorParamete
               "step");
 }
 
+// Catch and balance: the LQR of options.balance on the planning model, recorded in rec.details,
+// and the hybrid policy that runs it (null when the mode is off or there is no planning model).
+std::unique_ptr<control::BalancePolicy> make_hybrid(const rollout::Task& task,
+                                                    const model::DynamicsModel* planning,
+                                                    const policy::Policy& policy,
+                                                    const BlackDropsOptions& options,
+                                                    EpisodeRecord& rec) {
+  if (options.balance.mode == control::BalanceMode::kOff || !planning) return nullptr;
+  auto c = std::make_shared<const control::BalanceController>(
+      control::make_balance_controller(task, *planning, options.balance));
+  auto& n = rec.details.numbers;
+  n["balance_usable"] = c->usable() ? 1 : 0;
+  n["balance_dare_iterations"] = c->dare.iterations;
+  n["balance_closed_loop_radius"] = c->dare.closed_loop_radius;
+  n["balance_drift_norm"] = c->linearization.drift.norm();
+  for (Eigen::Index i = 0; i < c->dare.K.rows(); ++i)
+    for (Eigen::Index j = 0; j < c->dare.K.cols(); ++j)
+      n["balance_k_" + std::to_string(i) + "_" + std::to_string(j)] = c->dare.K(i, j);
+  return std::make_unique<control::BalancePolicy>(policy.clone(), task.state_dim(), std::move(c),
+                                                  options.balance);
+}
+
 }  // namespace
 
 model::ModelOptions black_drops_model_defaults() {
@@ -207,6 +233,7 @@ bool BlackDropsOptions::IsValid(std::string* why) const {
   if (!search.IsValid(&w)) return fail("search: " + w);
   if (!trust_region.IsValid(&w)) return fail("trust_region: " + w);
   if (!model.IsValid(&w)) return fail("model: " + w);
+  if (!balance.IsValid(&w)) return fail("balance: " + w);
   return true;
 }
 
@@ -262,6 +289,17 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   Progress p = start_or_resume(options, policy.param_dim(), *model, resume);
   const std::unique_ptr<model::DynamicsModel> prior_only =
       options.uses_prior() ? model::make_prior_only_model(prior, prior_parameters) : nullptr;
+  // Catch and balance: the policy's input gains the raw state (control::BalanceTask).
+  std::shared_ptr<const rollout::Task> balance_task;
+  if (options.balance.mode != control::BalanceMode::kOff) {
+    const auto goal = task->goal();
+    if (!goal)
+      throw InvalidArgument("run_black_drops: balance mode " +
+                            control::to_string(options.balance.mode) + " needs a goal state, and "
+                            "the task '" + task->name() + "' declares none (Task::goal)");
+    goal->check(task->state_dim(), task->action_dim());
+    balance_task = std::make_shared<control::BalanceTask>(task);
+  }
   auto stop = [&] { return callbacks.should_stop && callbacks.should_stop(); };
   auto status = [&](int episode, const char* phase, long evals, double best) {
     if (callbacks.on_status) callbacks.on_status(Status{episode, phase, evals, best});
@@ -300,13 +338,18 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       rec.model_seconds = rec.model.seconds;
       rec.phi = model->phi();
     }
+    // With catch and balance, the hybrid of the learned policy and the LQR on this model is
+    // what the search, the prediction and the real episode run.
+    const auto hybrid = make_hybrid(*task, planning, policy, options, rec);
+    const rollout::Task& run_task = hybrid ? *balance_task : *task;
+    const policy::Policy& run_policy = hybrid ? *hybrid : policy;
     // 2. Optimise the policy on the model (no model yet: a random policy).
     const auto t_policy = Clock::now();
     if (!planning) {
       rec.theta = random_theta(options, policy.param_dim(), 1);
       rec.random_policy = true;
       rec.selected = "random";
-    } else if (!search_policy(*task, *planning, policy, options, p, rec,
+    } else if (!search_policy(run_task, *planning, run_policy, options, p, rec,
                               [&](const opt::CmaesProgress& g) {
                                 status(episode, "policy", g.evaluations, -g.best_value);
                                 return !stop();
@@ -317,11 +360,11 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     rec.policy_seconds = seconds_since(t_policy);
     // 3. Predict its behaviour on that model.
     rec.predicted_return = kNaN;
-    if (planning) predict(*task, *planning, policy, options, rec);
+    if (planning) predict(run_task, *planning, run_policy, options, rec);
     if (episode == 1 && planning) check_prior_simulates(*task, prior_parameters, rec);
     // 4. Run it on the real system; its transitions join the data.
     status(episode, "episode", 0, 0);
-    run_on_real_system(*task, real, policy, options, p, rec);
+    run_on_real_system(run_task, real, run_policy, options, p, rec);
     if (callbacks.on_episode) callbacks.on_episode(rec);
     if (callbacks.on_state) callbacks.on_state(checkpoint(p, *model));
   }

@@ -1,5 +1,8 @@
 #include "drops/core/problem.hpp"
 
+#include <cmath>
+#include <numbers>
+
 #include <string>
 
 #include "drops/core/errors.hpp"
@@ -34,6 +37,31 @@ Transition Reflection::apply(const Transition& t) const {
   r.u = action_sign.cwiseProduct(t.u);
   r.dx = state_sign.cwiseProduct(t.dx);
   return r;
+}
+
+VectorXd Goal::error(const VectorXd& x) const {
+  check_size("Goal::error: x vs goal state", state.size(), x.size());
+  VectorXd e = x - state;
+  for (int i : angles) {
+    if (i < 0 || i >= e.size()) continue;  // check() reports it
+    e[i] = e[i] - 2 * std::numbers::pi * std::floor((e[i] + std::numbers::pi) /
+                                                    (2 * std::numbers::pi));
+  }
+  return e;
+}
+
+void Goal::check(int E, int U) const {
+  check_size("goal state vs task state_dim", E, state.size());
+  check_size("goal action vs task action_dim", U, action.size());
+  check_size("goal action_limit vs task action_dim", U, action_limit.size());
+  if (!state.allFinite() || !action.allFinite() || !action_limit.allFinite())
+    throw InvalidArgument("goal: the state, action and action_limit must be finite");
+  if ((action_limit.array() <= 0).any())
+    throw InvalidArgument("goal: every action_limit must be > 0");
+  for (int i : angles)
+    if (i < 0 || i >= E)
+      throw InvalidArgument("goal: angle index " + std::to_string(i) + " outside [0, " +
+                            std::to_string(E) + ")");
 }
 
 }  // namespace drops

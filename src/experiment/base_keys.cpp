@@ -258,6 +258,32 @@ KeyTable<BaseOptions> make_base_key_table() {
   t.add("rollouts.predicted", [](auto& o) -> auto& { return o.black_drops.predicted_rollouts; })
       .range(1, 100000)
       .help("rollouts used to report each episode's predicted return");
+  const auto balance = [](auto& o) -> auto& { return o.black_drops.balance; };
+  t.add("policy.balance.mode", [=](auto& o) -> auto& { return balance(o).mode; })
+      .values({{"off", control::BalanceMode::kOff}, {"lqr", control::BalanceMode::kLqr}})
+      .help("Black-DROPS: catch and balance near the task's goal state (docs/balance.md): lqr = "
+            "an LQR on the learned model's mean linearised at the goal, recomputed after each "
+            "learning step, takes over from the learned policy inside the region of "
+            "policy.balance.enter, in the model's rollouts as on the real system; off = the "
+            "learned policy alone. lqr needs a task that declares a goal state (Task::goal)");
+  t.add("policy.balance.q", [=](auto& o) -> auto& { return balance(o).q; })
+      .range(1e-9, 1e9)
+      .help("policy.balance.mode lqr: the LQR's state weight Q = q I (raw state's units)");
+  t.add("policy.balance.r", [=](auto& o) -> auto& { return balance(o).r; })
+      .range(1e-9, 1e9)
+      .help("policy.balance.mode lqr: the LQR's action weight R = r I (action's units)");
+  t.add("policy.balance.enter", [=](auto& o) -> auto& { return balance(o).enter; })
+      .range(1e-9, 1e12)
+      .help("policy.balance.mode lqr: the LQR takes over when its cost-to-go e'Pe (e = x - x*, "
+            "angles wrapped) is at most this");
+  t.add("policy.balance.exit", [=](auto& o) -> auto& { return balance(o).exit; })
+      .range(1e-9, 1e12)
+      .help("policy.balance.mode lqr: ... and hands back to the learned policy when e'Pe "
+            "exceeds this (hysteresis; >= policy.balance.enter)");
+  t.add("policy.balance.step", [=](auto& o) -> auto& { return balance(o).step; })
+      .range(1e-12, 1)
+      .help("policy.balance.mode lqr: central finite-difference step of the model's "
+            "linearisation at the goal (state's and action's units)");
   return t;
 }
 

@@ -27,6 +27,9 @@ algo::BlackDropsOptions black_drops_options(const Registry& registry, const Sett
   const ModelVariant& variant = registry.model_variant(base.model_type);
   a.model_factory = variant.factory;
   a.model_factory_uses_prior = variant.uses_prior;
+  if (!(a.balance.exit >= a.balance.enter))
+    throw ConfigError("config key 'policy.balance.exit' = '" + st.at("policy.balance.exit") +
+                      "': must be >= policy.balance.enter = " + st.at("policy.balance.enter"));
   std::string why;
   if (!a.IsValid(&why)) throw ConfigError("config: " + why);
   return a;
@@ -154,6 +157,10 @@ class BlackDropsPlugin final : public AlgorithmPlugin {
     if (o.uses_prior() && !setup.prior)
       throw ConfigError("config key 'model.type' = '" + s.at("model.type") +
                         "': this task has no simulator prior; use model.type gp");
+    if (o.balance.mode != control::BalanceMode::kOff && setup.task && !setup.task->goal())
+      throw ConfigError("config key 'policy.balance.mode' = '" + s.at("policy.balance.mode") +
+                        "': the task '" + setup.task->name() +
+                        "' declares no goal state; use policy.balance.mode off");
     return std::make_unique<algo::BlackDrops>(o);
   }
 

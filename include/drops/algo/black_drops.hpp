@@ -11,6 +11,7 @@
 
 #include "drops/algo/algorithm.hpp"
 #include "drops/algo/policy_search.hpp"
+#include "drops/control/balance.hpp"
 #include "drops/core/problem.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/opt/cmaes.hpp"
@@ -51,6 +52,14 @@ struct BlackDropsOptions {
   /// From episode 2 on, search only near the best real policy (TrustRegion; off by default, a
   /// task may turn it on through optimizer.trust_region).
   TrustRegionOptions trust_region;
+  /// Catch and balance (control/balance.hpp): with mode kLqr, every episode that plans on a model
+  /// (the prior alone in episode 1) computes an LQR on that model's mean linearised at the task's
+  /// goal (Task::goal; required), and the policy search, the prediction and the real episode run
+  /// the hybrid policy (control::BalancePolicy) with the searched theta. The gain is recomputed
+  /// after each learning step from the new model, deterministically (a resumed run recomputes
+  /// it); each episode's K, closed-loop spectral radius on the model and the real episode's steps
+  /// under the LQR are recorded in EpisodeRecord::details ("balance_*").
+  control::BalanceOptions balance;
   /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy
   /// (always their mean, whatever search.rollouts.statistic), >= 1.
   int predicted_rollouts = 20;

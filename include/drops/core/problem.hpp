@@ -47,6 +47,25 @@ struct Reflection {
   Transition apply(const Transition& t) const;
 };
 
+/// A goal state that a task declares: where a stabilising controller computed from the learned
+/// model (control/balance.hpp, policy.balance.mode) takes over from the learned policy.
+struct Goal {
+  VectorXd state;   ///< x* (dim E), in the raw state's units
+  VectorXd action;  ///< u* (dim U): the action that holds x* (e.g. zero torque upright)
+  /// |u_i| <= action_limit[i] (dim U, > 0): the controller's actions are clipped to it (the
+  /// task's action bounds, e.g. the policy's max torque).
+  VectorXd action_limit;
+  /// Indices of the entries of x that are angles in rad: their differences x_i - x*_i are
+  /// wrapped into [-pi, pi).
+  std::vector<int> angles;
+  /// x - x* (dim E) with the angle entries wrapped into [-pi, pi). Throws InvalidArgument when
+  /// x has not the size of state. Thread-safe.
+  VectorXd error(const VectorXd& x) const;
+  /// Throws InvalidArgument unless state has dim E, action and action_limit dim U, every limit
+  /// is > 0, every entry finite and every angle index in [0, E).
+  void check(int E, int U) const;
+};
+
 /// Everything about a problem except its dynamics: dimensions, start state, horizon, the observation
 /// fed to the policy and the GP (e.g. angles as cos/sin), the reward and the success criterion.
 /// Immutable and thread-safe.
@@ -100,6 +119,9 @@ class Task {
   /// declaration is the task's claim about the real system, which no model checks). Default:
   /// none. Thread-safe.
   virtual std::optional<Reflection> reflection() const { return std::nullopt; }
+  /// The goal state the task declares for a catch-and-balance controller (see Goal). Default:
+  /// none. Thread-safe.
+  virtual std::optional<Goal> goal() const { return std::nullopt; }
 };
 
 class System;
@@ -152,6 +174,7 @@ inline std::unique_ptr<EpisodeSession> System::begin_episode(const VectorXd& x0)
 /// The problem's types as the rollouts, the algorithms and the tasks name them (the same types).
 namespace rollout {
 using drops::EpisodeSession;
+using drops::Goal;
 using drops::Reflection;
 using drops::System;
 using drops::Task;

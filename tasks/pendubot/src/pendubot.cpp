@@ -191,6 +191,15 @@ std::optional<rollout::Reflection> SwingUpTask::reflection() const {
   return r;
 }
 
+std::optional<rollout::Goal> SwingUpTask::goal() const {
+  rollout::Goal g;
+  g.state = VectorXd::Zero(4);
+  g.action = VectorXd::Zero(1);
+  g.action_limit = VectorXd::Constant(1, options_.max_torque);
+  g.angles = {2, 3};
+  return g;
+}
+
 double SwingUpTask::goal_distance(const VectorXd& x) const {
   const auto tip = tip_position(x, options_.goal_l1, options_.goal_l2);
   const double gy = options_.goal_l1 + options_.goal_l2;

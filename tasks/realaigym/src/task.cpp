@@ -1,6 +1,7 @@
 #include "drops/realaigym/task.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include "drops/core/errors.hpp"
@@ -72,6 +73,16 @@ std::optional<rollout::Reflection> SwingupTask::reflection() const {
   r.state_offset = VectorXd::Zero(4);
   r.action_sign = -VectorXd::Ones(1);
   return r;
+}
+
+std::optional<rollout::Goal> SwingupTask::goal() const {
+  rollout::Goal g;
+  g.state = VectorXd::Zero(4);
+  g.state[0] = std::numbers::pi;
+  g.action = VectorXd::Zero(1);
+  g.action_limit = VectorXd::Constant(1, options_.max_torque);
+  g.angles = {0, 1};
+  return g;
 }
 
 PlantSystem::PlantSystem(const PlantParameters& plant, const TaskOptions& options)

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "drops/control/balance.hpp"
 #include "drops/core/rng.hpp"
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/experiment.hpp"
@@ -142,4 +143,36 @@ TEST(RealAIGymTask, ThePluginBuildsASetupWithTheLeaderboardsMetrics) {
   EXPECT_EQ(m[0], 0.0);  // swingup_success
   EXPECT_EQ(m[3], 0.0);  // max_tau_nm
   EXPECT_EQ(m[8], 0.0);  // realai_score
+}
+
+// The declared goal (upright at rest, x* = [pi, 0, 0, 0]) is an equilibrium of the plant at zero
+// torque, and the LQR of the plant's own dynamics linearised there (policy.balance.mode lqr on a
+// perfect model) catches a small offset within the torque limit.
+TEST(RealAIGymTask, TheGoalIsTheUprightEquilibriumAndItsLqrCatchesASmallOffset) {
+  const rg::TaskOptions o;
+  const rg::SwingupTask task(o);
+  const auto goal = task.goal();
+  ASSERT_TRUE(goal.has_value());
+  const rg::PlantParameters plant = rg::leaderboard_plant(o.leaderboard);
+  const rg::PlantSystem real(plant, o);
+  drops::Rng rng(1);
+  VectorXd u0 = VectorXd::Zero(1);
+  EXPECT_LT((real.step(goal->state, u0, rng) - goal->state).cwiseAbs().maxCoeff(), 1e-12);
+  drops::model::PriorParameters p;
+  p.names = rg::prior_parameter_names();
+  p.values = rg::to_phi(plant);
+  const auto model =
+      drops::model::make_prior_only_model(std::make_shared<rg::PlantPrior>(plant, o), p);
+  const auto c = drops::control::make_balance_controller(task, *model, {});
+  ASSERT_TRUE(c.usable());
+  VectorXd x = goal->state, u(1);
+  x[0] += 0.05;
+  x[1] -= 0.05;
+  x[2] = 0.1;
+  for (int t = 0; t < 250; ++t) {  // 5 s
+    c.act(x, u);
+    EXPECT_LE(std::abs(u[0]), o.max_torque);
+    x = real.step(x, u, rng);
+  }
+  EXPECT_LT(goal->error(x).cwiseAbs().maxCoeff(), 1e-4);
 }

@@ -88,6 +88,9 @@ class SwingUpTask final : public rollout::Task {
   /// angles, velocities and torque, whatever the parameters, so the real robot and every prior
   /// share it; the start state (hanging) and the goal (upright) are its fixed points.
   std::optional<rollout::Reflection> reflection() const override;
+  /// Upright at rest: x* = [0, 0, 0, 0], u* = 0, |u| <= max_torque, angles theta1, theta2
+  /// (entries 2 and 3) wrapped.
+  std::optional<rollout::Goal> goal() const override;
   const TaskOptions& options() const { return options_; }
   /// Distance (m) from the tip to the goal for state x.
   double goal_distance(const VectorXd& x) const;

@@ -67,6 +67,9 @@ class SwingupTask final : public rollout::Task {
   /// The mirror about the vertical, x -> -x, u -> -u: the lab's equations of motion are odd in
   /// the angles, velocities and torques; the start (0) is its fixed point.
   std::optional<rollout::Reflection> reflection() const override;
+  /// Upright at rest: x* = [pi, 0, 0, 0] (link 1 up, link 2 aligned), u* = 0,
+  /// |u| <= max_torque, angles q1, q2 (entries 0 and 1) wrapped.
+  std::optional<rollout::Goal> goal() const override;
   const TaskOptions& options() const { return options_; }
 
  private:
