@@ -545,6 +545,8 @@ void CampaignDirectory::check_kept_run(const Registry& registry, const CampaignR
   }
   // Compare what the runs do: an empty task-dependent default equals its value.
   Settings wanted = r.settings;
+  // The run resolved its relative paths (prior.model) when it read its configs/<run>.yaml.
+  resolve_path_keys(registry, wanted, run_config(r.name).string());
   resolve_derived_defaults(registry, existing);
   resolve_derived_defaults(registry, wanted);
   std::string key;

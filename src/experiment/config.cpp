@@ -332,19 +332,26 @@ Settings load_settings_file(const Registry& registry, const std::string& path,
   } catch (const ConfigError& e) {
     throw ConfigError(path + ": " + e.what());
   }
+  resolve_path_keys(registry, s, path);
+  return s;
+}
+
+void resolve_path_keys(const Registry& registry, Settings& settings,
+                       const std::string& config_file) {
   // A relative "path" key: in the configuration file's directory, then the working directory.
   namespace fs = std::filesystem;
-  for (const auto& spec : schema(registry, s.at("task"))) {
+  const auto task = settings.find("task");
+  if (task == settings.end() || !registry.has_task(task->second)) return;
+  for (const auto& spec : schema(registry, task->second)) {
     if (spec.type != "path") continue;
-    std::string& v = s[spec.key];
+    std::string& v = settings[spec.key];
     if (v.empty() || fs::path(v).is_absolute()) continue;
     std::error_code ec;
-    const fs::path beside = fs::path(path).parent_path() / v;
+    const fs::path beside = fs::path(config_file).parent_path() / v;
     v = (fs::exists(beside, ec) ? fs::absolute(beside, ec) : fs::absolute(v, ec))
             .lexically_normal()
             .string();
   }
-  return s;
 }
 
 void resolve_derived_defaults(const Registry& registry, Settings& settings) {

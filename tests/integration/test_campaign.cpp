@@ -472,3 +472,33 @@ TEST(Campaign, InterruptedAndKilledCampaignsResumeWithoutRepeatingFinishedRuns) 
   EXPECT_EQ(count_events(events, "begin"), 3);
   clean_up(d);
 }
+
+// A campaign whose runs take a description file by a relative prior.model (resolved by each run
+// to an absolute path) keeps its finished runs when invoked again from the same place.
+TEST(Campaign, ARelativePriorModelIsTheSameOnTheSecondInvocation) {
+  const fs::path d = fresh_dir("campaign", "relative-prior-model");
+  const fs::path file = d / "file-prior.yaml";
+  // Relative to this file's directory: the source tree's pendubot file, by a path from d.
+  const fs::path xml = fs::path(DROPS_SOURCE_DIR) / "tasks/pendubot/data/pendubot.xml";
+  fs::copy_file(xml, d / "pendubot.xml");
+  write_file(file,
+             "name: rel\nthreads: 1\ngrid:\n  seed: [1]\nsettings:\n  task: pendubot\n"
+             "  episodes: 1\n  optimizer.max_evaluations: 20\n  optimizer.prior_optimizations: 1\n"
+             "  prior:\n    model: pendubot.xml\n    parameters:\n"
+             "      - {name: Link2.mass, bounds: [0.05, 1], value: 0.5}\n");
+  const std::string args = "campaign " + file.string() + " --output " + (d / "out").string();
+  std::string err;
+  const std::string cwd = fs::current_path().string();
+  fs::current_path(d);  // the run resolves pendubot.xml beside its own config, then here
+  const int first = run_drops(args, &err, Stdout::kDiscard);
+  const int second = run_drops(args, &err, Stdout::kDiscard);
+  fs::current_path(cwd);
+  if (first != 0 && err.find("without MuJoCo") != std::string::npos) {
+    clean_up(d);
+    GTEST_SKIP() << "this drops was built without MuJoCo";
+  }
+  EXPECT_EQ(first, 0) << err;
+  EXPECT_EQ(second, 0) << err;
+  EXPECT_EQ(err.find("different settings"), std::string::npos) << err;
+  clean_up(d);
+}

@@ -221,7 +221,7 @@ TEST(EndToEnd, UnknownSubcommandIsNamedWithTheAvailableOnes) {
   std::string err;
   EXPECT_EQ(run_drops("foo", &err), 2);
   EXPECT_NE(err.find("drops: unknown subcommand 'foo' (available: run, config, campaign, report, "
-                     "plot, direct)"),
+                     "plot, direct, identify)"),
             std::string::npos)
       << err;
   // Without a word, CLI11's own message stays.

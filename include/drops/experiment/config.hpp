@@ -59,6 +59,12 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 /// values. An empty text gives the defaults.
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
                        const std::vector<std::string>& overrides);
+/// Makes every relative value of a "path" key of settings' task absolute, as load_settings_file
+/// does for the file it reads: the path beside config_file when that exists, else relative to
+/// the working directory. Settings of an unknown task are left as they are. Not thread-safe with
+/// a concurrent change of the working directory.
+void resolve_path_keys(const Registry& registry, Settings& settings,
+                       const std::string& config_file);
 /// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).
 /// The value of a "path" key that is relative becomes absolute: the file's directory joined with
 /// it when that exists, else the working directory joined with it.
