@@ -13,8 +13,8 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
-#include "drops/experiment/identify.hpp"
 #include "drops/experiment/experiment.hpp"
+#include "drops/experiment/identify.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run_directory.hpp"
@@ -218,6 +218,8 @@ bool known_anywhere(const Registry& registry, const std::string& key) {
       if (s.key == key) return true;
   for (const auto& s : identify_keys())
     if (s.key == key) return true;
+  for (const auto& s : no_task_keys())
+    if (s.key == key) return true;
   return registry.task_of_key(key) != nullptr;
 }
 
@@ -249,6 +251,10 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
   for (const auto& a : registry.algorithm_names())
     for (auto& k : registry.algorithm(a).keys()) s.push_back(std::move(k));
   for (auto& k : identify_keys()) s.push_back(std::move(k));
+  if (task == kNoTask) {
+    for (auto& k : no_task_keys()) s.push_back(std::move(k));
+    return s;
+  }
   const TaskPlugin& t = registry.task(task);
   for (auto& k : t.keys()) s.push_back(std::move(k));
   // The task's defaults of shared keys, validated by their declarations.
@@ -279,8 +285,7 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
       throw ConfigError("override '" + shown(o) +
                         "': expected key=value, e.g. model.type=gp_prior");
     const std::string key = o.substr(0, eq), value = o.substr(eq + 1);
-    YAML::Node n =
-        value.empty() ? YAML::Node(std::string()) : parse_yaml(value, "override " + key);
+    YAML::Node n = value.empty() ? YAML::Node(std::string()) : parse_yaml(value, "override " + key);
     if (n.IsScalar()) n = YAML::Node(value);  // strings and enums verbatim
     entries.emplace_back(key, n);
   }
@@ -291,7 +296,7 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
       if (!n.IsScalar()) fail("task", node_text(n), "expected a task name");
       if (!n.Scalar().empty()) task = n.Scalar();
     }
-  registry.task(task);  // ConfigError naming the available tasks
+  if (task != kNoTask) registry.task(task);  // ConfigError naming the available tasks
   const std::vector<KeySpec> keys = schema(registry, task);
   auto spec = [&](const std::string& k) -> const KeySpec* {
     for (const auto& s : keys)
@@ -308,11 +313,13 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
     const KeySpec* s = spec(k);
     if (!s) {
       if (const TaskPlugin* owner = registry.task_of_key(k)) {
-        fail(k, node_text(n), "this key belongs to task '" + owner->name() +
-                                  "'; this experiment's task is '" + task + "'");
+        fail(k, node_text(n),
+             "this key belongs to task '" + owner->name() + "'; this experiment's task is '" +
+                 task + "'");
       }
-      fail(k, node_text(n), "unknown key" + did_you_mean(k, names) +
-                                "; run 'drops config --markdown' for every key");
+      fail(
+          k, node_text(n),
+          "unknown key" + did_you_mean(k, names) + "; run 'drops config --markdown' for every key");
     }
     if (k == "task") continue;
     out[k] = validate(*s, n);
@@ -341,7 +348,8 @@ void resolve_path_keys(const Registry& registry, Settings& settings,
   // A relative "path" key: in the configuration file's directory, then the working directory.
   namespace fs = std::filesystem;
   const auto task = settings.find("task");
-  if (task == settings.end() || !registry.has_task(task->second)) return;
+  if (task == settings.end() || !(registry.has_task(task->second) || task->second == kNoTask))
+    return;
   for (const auto& spec : schema(registry, task->second)) {
     if (spec.type != "path") continue;
     std::string& v = settings[spec.key];
@@ -403,7 +411,7 @@ YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
 std::string to_yaml(const Registry& registry, const Settings& settings) {
   std::vector<KeySpec> keys;
   const auto task = settings.find("task");
-  if (task != settings.end() && registry.has_task(task->second))
+  if (task != settings.end() && (registry.has_task(task->second) || task->second == kNoTask))
     keys = schema(registry, task->second);
   else
     keys = base_keys();
@@ -443,8 +451,8 @@ void markdown_table(std::ostringstream& o, const std::vector<KeySpec>& keys) {
       range = r.str();
     }
     o << "| `" << s.key << "` | " << s.type << " | `"
-      << (s.default_value.empty() ? "\"\"" : s.default_value) << "` | " << range << " | "
-      << s.unit << " | " << s.doc << " |\n";
+      << (s.default_value.empty() ? "\"\"" : s.default_value) << "` | " << range << " | " << s.unit
+      << " | " << s.doc << " |\n";
   }
 }
 }  // namespace
@@ -463,6 +471,11 @@ std::string schema_markdown(const Registry& registry) {
   o << "\n## `drops identify`\n\nModel learning from recorded logs (docs/identify.md): the "
        "task gives the prior and the state and action names, model.* the model.\n\n";
   markdown_table(o, identify_keys());
+  o << "\n### `drops identify` without a task (`task: none`)\n\nThe prior is the description "
+       "file of `prior.model` (required, with `identify.dt`): the state is the angles then the "
+       "velocities of its joints `prior.joints`, the action the torques of `prior.actuated` "
+       "(docs/identify.md). Its keys beside the ones above:\n\n";
+  markdown_table(o, no_task_keys());
   for (const auto& t : registry.task_names()) {
     const TaskPlugin& p = registry.task(t);
     o << "\n## Task `" << t << "`\n\n" << p.description() << "\n\n";
