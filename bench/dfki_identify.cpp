@@ -226,6 +226,8 @@ int main(int argc, char** argv) {
       val_ids = split(next());
     else if (a == "--models")
       models = split(next());
+    else if (a == "--phi")
+      phi_names = split(next());
     else if (a == "--inducing")
       inducing = std::stoi(next());
     else if (a == "--gp-mi-max-points")
