@@ -13,7 +13,9 @@
 //             the smoothed velocities, period-averaged torques
 //   gp, gp_prior, mi, gp_mi
 //             drops' models learned by experiment::identify with the URDF prior and six tunable
-//             phi (the inertia scales, dampings and Coulomb frictions of both links and joints)
+//             phi (--phi; default: the inertia scales of both links, the armature (rotor
+//             inertia) and Coulomb friction of both joints:
+//             configs/identify-double-pendulum-gp_mi.yaml)
 // Usage: dfki_identify [--fit 00,01,02,04] [--validate 03,05] [--models LIST] [--inducing 200]
 //        [--gp-mi-max-points 0] [--ls-lowpass 5] [--derivative-window 0.02] [--phi LIST]
 //        [--threads 2] [--csv FILE] [--phi-csv FILE] [--data DIR]
@@ -212,8 +214,8 @@ int main(int argc, char** argv) {
   int inducing = 200, gp_mi_max_points = 0, threads = 2;
   double ls_lowpass = 5, window = 0.02;
   std::string csv, phi_csv;
-  std::vector<std::string> phi_names = {"Link1.inertia",  "Link2.inertia",   "Joint1.damping",
-                                        "Joint2.damping", "Joint1.friction", "Joint2.friction"};
+  std::vector<std::string> phi_names = {"Link1.inertia",   "Link2.inertia",   "Joint1.armature",
+                                        "Joint2.armature", "Joint1.friction", "Joint2.friction"};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
