@@ -13,8 +13,8 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
-#include "drops/experiment/experiment.hpp"
 #include "drops/experiment/identify.hpp"
+#include "drops/experiment/experiment.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run_directory.hpp"
@@ -285,7 +285,8 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
       throw ConfigError("override '" + shown(o) +
                         "': expected key=value, e.g. model.type=gp_prior");
     const std::string key = o.substr(0, eq), value = o.substr(eq + 1);
-    YAML::Node n = value.empty() ? YAML::Node(std::string()) : parse_yaml(value, "override " + key);
+    YAML::Node n =
+        value.empty() ? YAML::Node(std::string()) : parse_yaml(value, "override " + key);
     if (n.IsScalar()) n = YAML::Node(value);  // strings and enums verbatim
     entries.emplace_back(key, n);
   }
@@ -313,13 +314,11 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
     const KeySpec* s = spec(k);
     if (!s) {
       if (const TaskPlugin* owner = registry.task_of_key(k)) {
-        fail(k, node_text(n),
-             "this key belongs to task '" + owner->name() + "'; this experiment's task is '" +
-                 task + "'");
+        fail(k, node_text(n), "this key belongs to task '" + owner->name() +
+                                  "'; this experiment's task is '" + task + "'");
       }
-      fail(
-          k, node_text(n),
-          "unknown key" + did_you_mean(k, names) + "; run 'drops config --markdown' for every key");
+      fail(k, node_text(n), "unknown key" + did_you_mean(k, names) +
+                                "; run 'drops config --markdown' for every key");
     }
     if (k == "task") continue;
     out[k] = validate(*s, n);
@@ -451,8 +450,8 @@ void markdown_table(std::ostringstream& o, const std::vector<KeySpec>& keys) {
       range = r.str();
     }
     o << "| `" << s.key << "` | " << s.type << " | `"
-      << (s.default_value.empty() ? "\"\"" : s.default_value) << "` | " << range << " | " << s.unit
-      << " | " << s.doc << " |\n";
+      << (s.default_value.empty() ? "\"\"" : s.default_value) << "` | " << range << " | "
+      << s.unit << " | " << s.doc << " |\n";
   }
 }
 }  // namespace

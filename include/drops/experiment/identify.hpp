@@ -222,7 +222,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
 /// `drops identify`'s whole work, shared by the command line and Python's drops.identify: the
 /// task of settings' `task` gives the prior, its parameters and the state and action names (with
 /// task none, kNoTask: prior.model's file with prior.joints and prior.actuated, at identify.dt;
-/// the state names are the joints' names and `<joint>_vel`, the action names `<joint>_torque`),
+/// its state names, the defaults of identify.columns.state, are the joints' names then
+/// `<joint>_vel`, its action names `<joint>_torque`),
 /// model.* the variant, identify.* the logs (identify_options); identify() runs and the
 /// directory <output>/<name>/ (default name identify-<task>-<model.type>; with task none
 /// identify-<the file's stem>-<model.type>) is written (write_identify_directory). Throws
