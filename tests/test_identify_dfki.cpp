@@ -1,6 +1,7 @@
 // drops identify on a real robot (issue 68): the shipped subset of the DFKI double pendulum's
 // recordings (tests/data/double-pendulum-dfki: the first 3 s of trajectory_00 to fit, the first
-// 2 s of trajectory_01 to validate), the lab's URDF as the prior (drops::description), six phi.
+// 2 s of trajectory_01 to validate), the lab's URDF as the prior (drops::description), six phi;
+// and the same through a `task: none` configuration (identify_from_settings).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +9,12 @@
 #include <memory>
 
 #include "drops/description/description_prior.hpp"
+#include "drops/description/experiment_factory.hpp"
+#include "drops/experiment/config.hpp"
+#include "drops/experiment/experiment.hpp"
 #include "drops/experiment/identify.hpp"
+#include "drops/experiment/registry.hpp"
+#include "drops/pendubot/plugin.hpp"
 
 namespace drops {
 namespace {
@@ -24,9 +30,7 @@ const std::string kDir = DROPS_TEST_DATA "/double-pendulum-dfki/";
 
 // The columns of the recordings: angles from hanging (rad) and measured torques (N m); the
 // velocities are the Savitzky-Golay derivative of the angles over 20 ms (recorded_log.hpp), in
-// the prior's state order [q1, q2, qd1, qd2]. (With the drivers' logged velocities instead,
-// gp_mi's 0.5 s error of q1 was only 10% below the URDF's; with an 8 Hz low-pass as well, the
-// search ran to the inertias' upper bounds: both noted in docs/identify.md.)
+// the prior's state order [q1, q2, qd1, qd2].
 IdentifyOptions dfki_options() {
   IdentifyOptions o;
   o.logs = {kDir + "trajectory_00_first3s.csv"};
@@ -75,9 +79,12 @@ double median_at(const std::vector<experiment::PredictionErrors>& e, double h, i
 }
 
 // Identification is deterministic (no random stream: Rprop, Subplex, an evenly spaced
-// subsample), so one run stands for every seed. Measured (2 cores): gp_mi's median open-loop
-// angle errors at 0.5 s are 0.035 and 0.061 rad against the URDF's 0.101 and 0.427 (ratios 0.34
-// and 0.14), at 1.0 s 0.043 and 0.080 against 0.119 and 0.265; the threshold asks for 0.6.
+// subsample), so one run stands for every seed. The derivative window (20 ms) is the one
+// docs/results/double-pendulum.md chose on fit recordings only (fit 00, 01, 04, checked on 02,
+// against 10 ms); phi and bounds are that page's first candidate set (with the dampings). Measured (2 cores, about 4 s): gp_mi's median open-loop angle errors at
+// 0.5 s are 0.057 and 0.124 rad against the URDF's 0.100 and 0.426 (ratios 0.57 and 0.29), at
+// 1.0 s 0.048 and 0.118 against 0.120 and 0.265 (0.40 and 0.44); the threshold asks for 0.75 (a
+// broken identification stays near the URDF's, 1).
 TEST(IdentifyDfki, GpMiPredictsTheValidationRecordingBetterThanTheUrdfAtHalfASecondAndOne) {
   const IdentifyModel m = dfki_model(model::ModelType::kGpMi);
   const IdentifyResult r = experiment::identify(m, dfki_options());
@@ -89,7 +96,7 @@ TEST(IdentifyDfki, GpMiPredictsTheValidationRecordingBetterThanTheUrdfAtHalfASec
       const double model = median_at(r.summary.errors, h, dim);
       const double prior = median_at(r.summary.prior_errors, h, dim);
       std::printf("%g s, q%d: gp_mi %.4f rad, URDF %.4f rad\n", h, dim + 1, model, prior);
-      EXPECT_LT(model, 0.6 * prior) << "horizon " << h << " s, angle " << dim + 1;
+      EXPECT_LT(model, 0.75 * prior) << "horizon " << h << " s, angle " << dim + 1;
     }
   // phi's posterior: finite for the parameters off their bounds, even with one at a bound.
   const auto& s = r.summary;
@@ -107,6 +114,62 @@ TEST(IdentifyDfki, GpMiPredictsTheValidationRecordingBetterThanTheUrdfAtHalfASec
     finite += std::isfinite(s.phi_lower95[i]) ? 1 : 0;
   }
   EXPECT_GE(finite, 4);
+}
+
+// drops identify without a task (task: none): the URDF's joints are the state, their torques the
+// action; mi with a short search on the subset, through identify_from_settings (the command line's
+// and Python's path). The prior at its start is the baseline the identified phi must beat.
+TEST(IdentifyDfki, ATaskNoneConfigurationIdentifiesTheUrdfsJointsFromTheirLogs) {
+  experiment::Registry reg;
+  experiment::register_builtin_algorithms(reg);
+  pendubot::register_task(reg);
+  reg.set_description_prior_factory(description::experiment_factory());
+  const std::string out = ::testing::TempDir() + "identify-dfki-none";
+  const std::string yaml =
+      "task: none\n"
+      "model: {type: mi, mi: {max_evaluations: 300}}\n"
+      "prior:\n"
+      "  model: " +
+      kDir +
+      "double_pendulum.urdf\n"
+      "  parameters:\n"
+      "    - {name: Link1.inertia, bounds: [0.01, 2]}\n"
+      "    - {name: Link2.inertia, bounds: [0.01, 2]}\n"
+      "identify:\n"
+      "  dt: 0.01\n"
+      "  logs: [" +
+      kDir +
+      "trajectory_00_first3s.csv]\n"
+      "  validation: [" +
+      kDir +
+      "trajectory_01_first2s.csv]\n"
+      "  columns: {state: [pos_meas1, pos_meas2, d/dt(pos_meas1), d/dt(pos_meas2)], angles: "
+      "[pos_meas1, pos_meas2], action: [tau_meas1, tau_meas2]}\n"
+      "  derivative_window: 0.02\n"
+      "output: " +
+      out + "\n";
+  const experiment::Settings st = experiment::load_settings(reg, yaml, {});
+  const experiment::IdentifyRun run = experiment::identify_from_settings(reg, st);
+  const auto& s = run.result.summary;
+  EXPECT_EQ(s.state_names,
+            (std::vector<std::string>{"pos_meas1", "pos_meas2", "Joint1_vel", "Joint2_vel"}));
+  EXPECT_EQ(s.action_names, (std::vector<std::string>{"tau_meas1", "tau_meas2"}));
+  EXPECT_EQ(run.directory.filename().string(), "identify-double_pendulum-mi");
+  ASSERT_EQ(s.phi.size(), 2);
+  for (int dim : {0, 1})
+    EXPECT_LT(median_at(s.errors, 0.5, dim), 0.8 * median_at(s.prior_errors, 0.5, dim)) << dim;
+  // Without prior.model, or without identify.dt, nothing runs; drops run refuses task none.
+  EXPECT_THROW(
+      experiment::identify_from_settings(
+          reg, experiment::load_settings(reg, yaml, {"prior.model=", "prior.parameters=[]"})),
+      ConfigError);
+  EXPECT_THROW(experiment::identify_from_settings(
+                   reg, experiment::load_settings(reg, yaml, {"identify.dt=0"})),
+               ConfigError);
+  EXPECT_THROW(experiment::make_experiment(reg, st), ConfigError);
+  EXPECT_THROW(experiment::identify_from_settings(
+                   reg, experiment::load_settings(reg, yaml, {"prior.joints=[Joint3]"})),
+               ConfigError);
 }
 
 }  // namespace

@@ -218,6 +218,8 @@ bool known_anywhere(const Registry& registry, const std::string& key) {
       if (s.key == key) return true;
   for (const auto& s : identify_keys())
     if (s.key == key) return true;
+  for (const auto& s : no_task_keys())
+    if (s.key == key) return true;
   return registry.task_of_key(key) != nullptr;
 }
 
@@ -249,6 +251,10 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
   for (const auto& a : registry.algorithm_names())
     for (auto& k : registry.algorithm(a).keys()) s.push_back(std::move(k));
   for (auto& k : identify_keys()) s.push_back(std::move(k));
+  if (task == kNoTask) {
+    for (auto& k : no_task_keys()) s.push_back(std::move(k));
+    return s;
+  }
   const TaskPlugin& t = registry.task(task);
   for (auto& k : t.keys()) s.push_back(std::move(k));
   // The task's defaults of shared keys, validated by their declarations.
@@ -291,7 +297,7 @@ Settings load_settings(const Registry& registry, const std::string& yaml_text,
       if (!n.IsScalar()) fail("task", node_text(n), "expected a task name");
       if (!n.Scalar().empty()) task = n.Scalar();
     }
-  registry.task(task);  // ConfigError naming the available tasks
+  if (task != kNoTask) registry.task(task);  // ConfigError naming the available tasks
   const std::vector<KeySpec> keys = schema(registry, task);
   auto spec = [&](const std::string& k) -> const KeySpec* {
     for (const auto& s : keys)
@@ -341,7 +347,8 @@ void resolve_path_keys(const Registry& registry, Settings& settings,
   // A relative "path" key: in the configuration file's directory, then the working directory.
   namespace fs = std::filesystem;
   const auto task = settings.find("task");
-  if (task == settings.end() || !registry.has_task(task->second)) return;
+  if (task == settings.end() || !(registry.has_task(task->second) || task->second == kNoTask))
+    return;
   for (const auto& spec : schema(registry, task->second)) {
     if (spec.type != "path") continue;
     std::string& v = settings[spec.key];
@@ -403,7 +410,7 @@ YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
 std::string to_yaml(const Registry& registry, const Settings& settings) {
   std::vector<KeySpec> keys;
   const auto task = settings.find("task");
-  if (task != settings.end() && registry.has_task(task->second))
+  if (task != settings.end() && (registry.has_task(task->second) || task->second == kNoTask))
     keys = schema(registry, task->second);
   else
     keys = base_keys();
@@ -463,6 +470,11 @@ std::string schema_markdown(const Registry& registry) {
   o << "\n## `drops identify`\n\nModel learning from recorded logs (docs/identify.md): the "
        "task gives the prior and the state and action names, model.* the model.\n\n";
   markdown_table(o, identify_keys());
+  o << "\n### `drops identify` without a task (`task: none`)\n\nThe prior is the description "
+       "file of `prior.model` (required, with `identify.dt`): the state is the angles then the "
+       "velocities of its joints `prior.joints`, the action the torques of `prior.actuated` "
+       "(docs/identify.md). Its keys beside the ones above:\n\n";
+  markdown_table(o, no_task_keys());
   for (const auto& t : registry.task_names()) {
     const TaskPlugin& p = registry.task(t);
     o << "\n## Task `" << t << "`\n\n" << p.description() << "\n\n";

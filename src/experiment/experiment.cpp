@@ -12,6 +12,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/experiment/campaign.hpp"
+#include "drops/experiment/identify.hpp"
 #include "drops/experiment/run_directory.hpp"
 #include "experiment_plugins.hpp"
 
@@ -434,6 +435,11 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
   const BaseOptions base = base_options(st);
   e.task = base.task;
   e.algorithm = base.algorithm;
+  if (e.task == kNoTask)
+    throw ConfigError(
+        "config key 'task' = 'none': a configuration without a task is for drops identify (a "
+        "description file's joints, prior.model); drops run needs a task (available: " +
+        fmt::format("{}", fmt::join(registry.task_names(), ", ")) + ")");
   const TaskPlugin& task = registry.task(e.task);
   const AlgorithmPlugin& algorithm = registry.algorithm(e.algorithm);
   e.seed = base.black_drops.seed;

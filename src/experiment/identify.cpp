@@ -13,6 +13,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
+#include "drops/experiment/description_prior.hpp"
 #include "drops/experiment/experiment.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run_directory.hpp"
@@ -451,6 +452,25 @@ const std::vector<KeySpec>& identify_keys() {
                     "drops identify: most transitions the model learns from (an evenly spaced "
                     "subset, for the phi search and the final kernel fit alike); 0 = all",
                     0, 1e9));
+    v.push_back(key("identify.dt", "double", "0", "s",
+                    "drops identify: the control period the logs are resampled to; 0 = the "
+                    "task's dt (with task: none, required; a task's must equal it)",
+                    0, 1e3));
+    return v;
+  }();
+  return k;
+}
+
+const std::vector<KeySpec>& no_task_keys() {
+  static const std::vector<KeySpec> k = [] {
+    std::vector<KeySpec> v = description_prior_keys();
+    v.push_back(key("prior.joints", "list", "[]", "-",
+                    "with task: none (drops identify): the joints of the state, names as in "
+                    "prior.model's file; the state is their angles then their velocities; [] = "
+                    "every joint that moves, in the file's order"));
+    v.push_back(key("prior.actuated", "list", "[]", "-",
+                    "with task: none (drops identify): the joints the action drives (their "
+                    "torques, in this order); [] = every joint of prior.joints"));
     return v;
   }();
   return k;
@@ -697,12 +717,86 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
 
 namespace drops::experiment {
 
+namespace {
+
+// The prior, parameters, feature task and names of a configuration with task none: prior.model's
+// joints prior.joints (state [q, qd]) and prior.actuated (torques) at identify.dt.
+TaskSetup no_task_setup(const Registry& registry, const Settings& st, double dt) {
+  if (!uses_description_prior(st))
+    throw ConfigError(
+        "config key 'task' = 'none': drops identify without a task needs prior.model (a URDF or "
+        "MJCF file: its joints are the state, their torques the action)");
+  if (!(dt > 0))
+    throw ConfigError(
+        "config key 'identify.dt' = 0: with task: none, set the control period (s) the logs are "
+        "resampled to");
+  const DescriptionPriorFactory& factory = registry.description_prior_factory();
+  if (!factory)
+    throw ConfigError("config key 'prior.model' = '" + st.at("prior.model") +
+                      "': this build of drops has no description-file prior (MuJoCo)");
+  const DescriptionPriorSpec spec = description_prior_spec(st);
+  JointDeclaration joints;
+  joints.joints = get_names(st, "prior.joints");
+  joints.actuated = get_names(st, "prior.actuated");
+  if (joints.joints.empty() || joints.actuated.empty()) {
+    // The file's joints (every one that moves) or prior.joints' as the actuated ones.
+    DescriptionPriorRequest r;
+    r.file = spec.file;
+    r.joints = joints.joints;
+    r.actuated = joints.actuated;
+    r.dt = dt;
+    DescriptionPriorModel m;
+    try {
+      m = factory(r);
+    } catch (const Error& e) {
+      throw ConfigError(std::string("config key 'prior.model': ") + e.what());
+    }
+    if (m.joints.empty() || m.actuated.empty())
+      throw ConfigError("config key 'prior.model' = '" + spec.file +
+                        "': the prior does not name its joints: set prior.joints and "
+                        "prior.actuated");
+    joints.joints = m.joints;
+    joints.actuated = m.actuated;
+  }
+  DescriptionPriorSetup d = make_description_prior(factory, spec, joints, dt);
+  TaskSetup setup;
+  const int n = static_cast<int>(joints.joints.size());
+  setup.task = feature_task(2 * n, static_cast<int>(joints.actuated.size()), dt);
+  setup.prior = std::move(d.prior);
+  setup.prior_parameters = std::move(d.parameters);
+  for (const auto& j : joints.joints) setup.state_names.push_back(j);
+  for (const auto& j : joints.joints) setup.state_names.push_back(j + "_vel");
+  for (const auto& j : joints.actuated) setup.action_names.push_back(j + "_torque");
+  return setup;
+}
+
+}  // namespace
+
 IdentifyRun identify_from_settings(const Registry& registry, const Settings& settings,
                                    const IdentifyMessage& message,
                                    const model::ModelProgress& progress) {
   const BaseOptions base = base_options(settings);
   const std::string task_name = settings.at("task");
-  TaskSetup setup = registry.task(task_name).make(settings);
+  const double identify_dt = get_double(settings, "identify.dt");
+  TaskSetup setup = task_name == kNoTask ? no_task_setup(registry, settings, identify_dt)
+                                         : registry.task(task_name).make(settings);
+  if (task_name != kNoTask && identify_dt > 0 &&
+      std::abs(identify_dt - setup.task->dt()) > 1e-9 * identify_dt)
+    throw ConfigError(fmt::format(
+        "config key 'identify.dt' = {} s: task '{}' has dt = {} s (leave identify.dt at 0 for "
+        "the task's)",
+        identify_dt, task_name, setup.task->dt()));
+  if (task_name != kNoTask && uses_description_prior(settings)) {
+    // The task's prior replaced by the file's, as drops run does (TaskSetup::joints).
+    if (!setup.joints)
+      throw ConfigError("config key 'prior.model': task '" + task_name +
+                        "' declares no joints, so it cannot use a description file as its prior");
+    DescriptionPriorSetup d =
+        make_description_prior(registry.description_prior_factory(),
+                               description_prior_spec(settings), *setup.joints, setup.task->dt());
+    setup.prior = std::move(d.prior);
+    setup.prior_parameters = std::move(d.parameters);
+  }
   const ModelVariant& variant = registry.model_variant(base.model_type);
   IdentifyModel what;
   what.type = variant.name;
@@ -720,7 +814,13 @@ IdentifyRun identify_from_settings(const Registry& registry, const Settings& set
   IdentifyRun run;
   run.options = identify_options(settings, setup.task->dt(), states, actions);
   const std::string name =
-      base.name.empty() ? fmt::format("identify-{}-{}", task_name, variant.name) : base.name;
+      base.name.empty()
+          ? fmt::format("identify-{}-{}",
+                        task_name == kNoTask
+                            ? std::filesystem::path(settings.at("prior.model")).stem().string()
+                            : task_name,
+                        variant.name)
+          : base.name;
   if (!is_directory_name(name))
     throw ConfigError("config key 'name' = '" + name + "' is not a directory name");
   run.directory = std::filesystem::path(base.output) / name;

@@ -73,6 +73,9 @@ struct DescriptionPriorRequest {
 struct DescriptionPriorModel {
   std::shared_ptr<const model::MeanFunction> prior;
   VectorXd file_values;
+  /// The joints of the prior's state and action, in order (names as in the file): the request's,
+  /// or the file's when the request left them empty. Empty when the factory does not say.
+  std::vector<std::string> joints, actuated;
 };
 
 /// Loads a description file as a prior. Throws InvalidArgument with a message naming the file
@@ -82,16 +85,16 @@ using DescriptionPriorFactory =
 
 /// One entry of prior.parameters.
 struct DescriptionParameter {
-  std::string name;             ///< e.g. "Link1.mass", "Joint1.damping", "gravity"
-  std::optional<double> value;  ///< the starting value (empty: the file's)
-  bool tunable = true;          ///< whether GP-MI and MI may tune it
+  std::string name;                             ///< e.g. "Link1.mass", "Joint1.damping", "gravity"
+  std::optional<double> value;                  ///< the starting value (empty: the file's)
+  bool tunable = true;                          ///< whether GP-MI and MI may tune it
   std::optional<std::array<double, 2>> bounds;  ///< [lower, upper], required when tunable
 };
 
 /// The description-file prior of a configuration: what description_prior_spec() reads.
 struct DescriptionPriorSpec {
-  std::string file;    ///< prior.model, as resolved by load_settings_file
-  std::string sha256;  ///< SHA-256 of the file's bytes (64 hex digits)
+  std::string file;                              ///< prior.model, as resolved by load_settings_file
+  std::string sha256;                            ///< SHA-256 of the file's bytes (64 hex digits)
   std::vector<DescriptionParameter> parameters;  ///< prior.parameters, in order
   std::optional<int> substeps;                   ///< prior.substeps (empty: the task's)
   std::optional<double> coulomb_velocity;        ///< prior.coulomb_velocity (empty: 0.01)

@@ -184,6 +184,18 @@ IdentifyResult identify(const IdentifyModel& what, const IdentifyOptions& option
 /// Thread-safe.
 const std::vector<KeySpec>& identify_keys();
 
+/// The `task` of a `drops identify` configuration without a built-in task: the prior is the
+/// description file of prior.model (required), the state the angles and velocities of its joints
+/// prior.joints ([q, qd], dim 2n), the action the torques of prior.actuated (dim m), the control
+/// period identify.dt (required). Not a task of `drops run`.
+inline constexpr const char* kNoTask = "none";
+
+/// The keys of a configuration with task none beside the base, algorithm and identify.* keys:
+/// the description-file prior's (description_prior_keys()) and prior.joints, prior.actuated
+/// (lists of the file's joint names; [] = every joint that moves, in the file's order, and every
+/// joint of prior.joints). Thread-safe.
+const std::vector<KeySpec>& no_task_keys();
+
 /// IdentifyOptions of validated settings: identify.* with dt = the task's control period, the
 /// columns defaulting to the task's state and action names (a state entry "d/dt(COLUMN)" is the
 /// smoothed derivative of COLUMN, named by the task's state name at its place), seed and threads.
@@ -208,13 +220,17 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
                                                             const std::string& config_yaml);
 
 /// `drops identify`'s whole work, shared by the command line and Python's drops.identify: the
-/// task of settings' `task` gives the prior, its parameters and the state and action names,
+/// task of settings' `task` gives the prior, its parameters and the state and action names (with
+/// task none, kNoTask: prior.model's file with prior.joints and prior.actuated, at identify.dt;
+/// its state names, the defaults of identify.columns.state, are the joints' names then
+/// `<joint>_vel`, its action names `<joint>_torque`),
 /// model.* the variant, identify.* the logs (identify_options); identify() runs and the
-/// directory <output>/<name>/ (default name identify-<task>-<model.type>) is written
-/// (write_identify_directory). Throws ConfigError for a bad key or value, or a log without a
-/// declared column (the message names the file and the column); drops::Error for a log's other
-/// errors (file, line, column) and the model's learning; nothing is written before the learning
-/// is done. Not thread-safe (one identify at a time: the thread limit is process-wide).
+/// directory <output>/<name>/ (default name identify-<task>-<model.type>; with task none
+/// identify-<the file's stem>-<model.type>) is written (write_identify_directory). Throws
+/// ConfigError for a bad key or value, or a log without a declared column (the message names the
+/// file and the column); drops::Error for a log's other errors (file, line, column) and the model's
+/// learning; nothing is written before the learning is done. Not thread-safe (one identify at a
+/// time: the thread limit is process-wide).
 struct IdentifyRun {
   IdentifyResult result;
   IdentifyOptions options;

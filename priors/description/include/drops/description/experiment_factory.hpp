@@ -12,8 +12,9 @@
 namespace drops::description {
 
 /// The factory: a DescriptionPrior of the request (its file, joints, actuated joints, phi's
-/// names, dt, substeps, Coulomb velocity scale) and the file's values of phi. Throws
-/// InvalidArgument as DescriptionPrior's constructor (naming the file and the item). Thread-safe.
+/// names, dt, substeps, Coulomb velocity scale), the file's values of phi and the joints' names.
+/// Throws InvalidArgument as DescriptionPrior's constructor (naming the file and the item).
+/// Thread-safe.
 inline experiment::DescriptionPriorFactory experiment_factory() {
   return [](const experiment::DescriptionPriorRequest& r) {
     DescriptionPriorOptions o;
@@ -27,6 +28,8 @@ inline experiment::DescriptionPriorFactory experiment_factory() {
     auto prior = std::make_shared<const DescriptionPrior>(o);
     experiment::DescriptionPriorModel m;
     m.file_values = prior->default_phi();
+    m.joints = prior->joint_names();
+    m.actuated = prior->actuated_joint_names();
     m.prior = std::move(prior);
     return m;
   };
