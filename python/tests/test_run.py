@@ -3,6 +3,7 @@ for the same config, overrides and seed; its run directory reads back into array
 files; it resumes and extends like `drops run --resume`."""
 
 import csv
+import json
 import pathlib
 
 import numpy as np
@@ -124,3 +125,33 @@ def test_resume_extends_a_run_to_the_episodes_of_an_uninterrupted_one(tmp_path, 
                           for r in rows]
     assert strip(read_csv(tmp_path / "short" / "episodes.csv")) == \
            strip(read_csv(tmp_path / "long" / "episodes.csv"))
+
+
+def test_a_run_starts_from_recorded_logs_and_records_them(tmp_path, drops_program):
+    # A log: the real trajectory of one run's random first episode (seed 5); its last row holds
+    # no action, so identify.bad_rows=drop drops it (one transition fewer).
+    drops.run(None, ["model.type=gp", "episodes=1"], seed=5, output=tmp_path, name="log",
+              quiet=True, progress=lambda line: None)
+    log = tmp_path / "log" / "episodes" / "001" / "real.csv"
+    rows = len(log.read_text().splitlines()) - 1
+    config = [*TINY[1:], "episodes=2", f"data.logs=[{log}]", "identify.columns.time=t",
+              "identify.bad_rows=drop"]
+    lines = []
+    outcome = drops.run(GP_MI_CONFIG, config, seed=3, output=tmp_path, name="fromlogs",
+                        progress=lines.append)
+    assert outcome.status == "complete" and outcome.episodes_done == 2
+    # Episode 1 learned a model (on the log) and predicted its return: not the prior-only one.
+    first = read_csv(tmp_path / "fromlogs" / "episodes.csv")[0]
+    assert first["episode"] == "1" and float(first["model_learning_s"]) > 0
+    assert any("recorded data: 1 log(s)" in l for l in lines), lines
+    checkpoint = json.loads((tmp_path / "fromlogs" / "checkpoint.json").read_text())
+    declared = checkpoint["validation"]["task"]["declaration"]
+    assert declared["data.log.1"] == str(log)
+    assert declared["data.log.1.rows"] == str(rows)
+    assert declared["data.log.1.transitions"] == str(rows - 2)
+    assert len(declared["data.log.1.sha256"]) == 64
+    # A log without a declared column is refused before anything runs, naming file and column.
+    with pytest.raises(drops.ConfigError, match="time"):
+        drops.run(GP_MI_CONFIG, [*TINY[1:], f"data.logs=[{log}]"], output=tmp_path, name="bad",
+                  quiet=True, progress=lambda line: None)
+    assert not (tmp_path / "bad").exists()

@@ -39,7 +39,10 @@ Progress start_or_resume(const BlackDropsOptions& options, int n, model::Dynamic
                          const BlackDropsState* resume) {
   Progress p{{}, {}, -std::numeric_limits<double>::infinity(), 0, 0,
              TrustRegion(options.trust_region)};
-  if (!resume) return p;
+  if (!resume) {
+    p.data = options.recorded_data;  // the recorded transitions come first
+    return p;
+  }
   if (resume->episodes_done < 1 || resume->episodes_done > options.episodes)
     throw InvalidArgument("resume: episodes_done = " + std::to_string(resume->episodes_done) +
                           " is outside [1, " + std::to_string(options.episodes) + "]");
@@ -50,6 +53,8 @@ Progress start_or_resume(const BlackDropsOptions& options, int n, model::Dynamic
   p.best_theta = resume->best_theta;
   p.best_return = resume->best_return;
   p.first_solved_episode = resume->first_solved_episode;
+  if (resume->data.size() < options.recorded_data.size())
+    throw InvalidArgument("resume: the state holds fewer transitions than the recorded data");
   p.episodes_done = resume->episodes_done;
   if (options.trust_region.enabled) {
     const BlackDropsOwnState own = BlackDropsOwnState::load(resume->extra);
@@ -88,14 +93,14 @@ VectorXd random_theta(const BlackDropsOptions& options, int n, std::uint64_t epi
 // rec's theta and search record; returns false when the caller stopped the search.
 bool search_policy(const rollout::Task& task, const model::DynamicsModel& planning,
                    const policy::Policy& policy, const BlackDropsOptions& options,
-                   const Progress& p, EpisodeRecord& rec,
+                   const Progress& p, EpisodeRecord& rec, bool on_prior_alone,
                    const std::function<bool(const opt::CmaesProgress&)>& on_gen) {
   const std::uint64_t ep = static_cast<std::uint64_t>(rec.episode);
   SearchStart start;
   start.theta0 = p.best_theta.size() ? p.best_theta : random_theta(options, policy.param_dim(), ep);
   start.region = p.region.search_radius(p.best_theta.size() > 0);
   if (p.region.enabled()) rec.details.numbers["trust_region_radius"] = start.region;
-  const int searches = rec.episode == 1 ? options.prior_optimizations : 1;
+  const int searches = on_prior_alone ? options.prior_optimizations : 1;
   bool stopped = false;  // on_gen said stop (even in a generation that ended the search)
   auto gen = [&](const opt::CmaesProgress& g) { return on_gen(g) || (stopped = true, false); };
   double chosen_value = -std::numeric_limits<double>::infinity();
@@ -278,6 +283,16 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
   if (!task) throw InvalidArgument("run_black_drops: task is null");
   check_size("policy observation_dim vs task observation_dim", task->observation_dim(),
              policy.observation_dim());
+  for (std::size_t i = 0; i < options.recorded_data.size(); ++i) {
+    const Transition& t = options.recorded_data[i];
+    if (t.x.size() != task->state_dim() || t.dx.size() != task->state_dim() ||
+        t.u.size() != task->action_dim() || !t.x.allFinite() || !t.u.allFinite() ||
+        !t.dx.allFinite())
+      throw InvalidArgument("run_black_drops: recorded transition " + std::to_string(i) +
+                            " is not finite or has other dimensions than the task's state (" +
+                            std::to_string(task->state_dim()) + ") and action (" +
+                            std::to_string(task->action_dim()) + ")");
+  }
   const auto t_run = Clock::now();
   if (options.uses_prior() && !prior)
     throw InvalidArgument("run_black_drops: the model uses a simulator prior but prior is null");
@@ -316,7 +331,10 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     rec.episode = episode;
     // 1. Learn the model on all real transitions; episode 1 plans on the prior alone (if any).
     const model::DynamicsModel* planning = model.get();
-    if (episode == 1) {
+    // Episode 1 learns no model, unless recorded data are there to learn from.
+    const bool model_free =
+        episode == 1 && (options.recorded_data.empty() || options.keep_first_episode);
+    if (model_free) {
       planning = prior_only.get();
       rec.phi = planning ? prior_parameters.values : model->phi();
     } else {
@@ -349,7 +367,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
       rec.theta = random_theta(options, policy.param_dim(), 1);
       rec.random_policy = true;
       rec.selected = "random";
-    } else if (!search_policy(run_task, *planning, run_policy, options, p, rec,
+    } else if (!search_policy(run_task, *planning, run_policy, options, p, rec, model_free,
                               [&](const opt::CmaesProgress& g) {
                                 status(episode, "policy", g.evaluations, -g.best_value);
                                 return !stop();
@@ -361,7 +379,7 @@ BlackDropsSummary run_black_drops(std::shared_ptr<const rollout::Task> task,
     // 3. Predict its behaviour on that model.
     rec.predicted_return = kNaN;
     if (planning) predict(run_task, *planning, run_policy, options, rec);
-    if (episode == 1 && planning) check_prior_simulates(*task, prior_parameters, rec);
+    if (model_free && planning) check_prior_simulates(*task, prior_parameters, rec);
     // 4. Run it on the real system; its transitions join the data.
     status(episode, "episode", 0, 0);
     run_on_real_system(run_task, real, run_policy, options, p, rec);

@@ -13,8 +13,8 @@
 #include <sstream>
 
 #include "drops/core/errors.hpp"
-#include "drops/experiment/identify.hpp"
 #include "drops/experiment/experiment.hpp"
+#include "drops/experiment/identify.hpp"
 #include "drops/experiment/keys.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/experiment/run_directory.hpp"
@@ -142,6 +142,16 @@ std::string validate(const KeySpec& s, const YAML::Node& n) {
     e << n;
     return e.c_str();
   }
+  if (s.type == "paths") {
+    if (!n.IsSequence()) fail(s.key, text, "expected a list of paths such as [a.csv, b.csv]");
+    for (const auto& e : n)
+      if (!e.IsScalar() || e.Scalar().empty())
+        fail(s.key, text, "expected a list of paths such as [a.csv, b.csv]");
+    YAML::Emitter e;
+    e.SetSeqFormat(YAML::Flow);
+    e << n;
+    return e.c_str();
+  }
   if (s.type == "names") {
     if (!n.IsSequence()) fail(s.key, text, "expected a list such as [a, b]");
     std::set<std::string> seen;
@@ -218,6 +228,8 @@ bool known_anywhere(const Registry& registry, const std::string& key) {
       if (s.key == key) return true;
   for (const auto& s : identify_keys())
     if (s.key == key) return true;
+  for (const auto& s : run_data_keys())
+    if (s.key == key) return true;
   for (const auto& s : no_task_keys())
     if (s.key == key) return true;
   return registry.task_of_key(key) != nullptr;
@@ -255,6 +267,7 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task) {
     for (auto& k : no_task_keys()) s.push_back(std::move(k));
     return s;
   }
+  for (auto& k : run_data_keys()) s.push_back(std::move(k));
   const TaskPlugin& t = registry.task(task);
   for (auto& k : t.keys()) s.push_back(std::move(k));
   // The task's defaults of shared keys, validated by their declarations.
@@ -350,14 +363,31 @@ void resolve_path_keys(const Registry& registry, Settings& settings,
   if (task == settings.end() || !(registry.has_task(task->second) || task->second == kNoTask))
     return;
   for (const auto& spec : schema(registry, task->second)) {
-    if (spec.type != "path") continue;
-    std::string& v = settings[spec.key];
-    if (v.empty() || fs::path(v).is_absolute()) continue;
-    std::error_code ec;
-    const fs::path beside = fs::path(config_file).parent_path() / v;
-    v = (fs::exists(beside, ec) ? fs::absolute(beside, ec) : fs::absolute(v, ec))
-            .lexically_normal()
-            .string();
+    const auto resolve = [&](std::string& v) {
+      if (v.empty() || fs::path(v).is_absolute()) return;
+      std::error_code ec;
+      const fs::path beside = fs::path(config_file).parent_path() / v;
+      v = (fs::exists(beside, ec) ? fs::absolute(beside, ec) : fs::absolute(v, ec))
+              .lexically_normal()
+              .string();
+    };
+    if (spec.type == "path") {
+      resolve(settings[spec.key]);
+    } else if (spec.type == "paths") {
+      const auto it = settings.find(spec.key);
+      if (it == settings.end() || it->second.empty()) continue;
+      YAML::Node list = YAML::Load(it->second);
+      YAML::Node out(YAML::NodeType::Sequence);
+      for (const auto& e : list) {
+        std::string v = e.as<std::string>();
+        resolve(v);
+        out.push_back(v);
+      }
+      YAML::Emitter em;
+      em.SetSeqFormat(YAML::Flow);
+      em << out;
+      it->second = em.c_str();
+    }
   }
 }
 
@@ -399,7 +429,8 @@ void emit(YAML::Emitter& e, const Tree& t) {
 
 YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
   const std::string type = spec ? spec->type : "string";
-  if (type == "interval" || type == "names" || type == "list" || type == "numbers")
+  if (type == "interval" || type == "names" || type == "list" || type == "numbers" ||
+      type == "paths")
     return YAML::Load(v);
   if (type == "string" || type == "enum" || type == "path") return YAML::Node(v);
   if (v.empty()) return YAML::Node(YAML::NodeType::Null);
@@ -475,6 +506,10 @@ std::string schema_markdown(const Registry& registry) {
        "velocities of its joints `prior.joints`, the action the torques of `prior.actuated` "
        "(docs/identify.md). Its keys beside the ones above:\n\n";
   markdown_table(o, no_task_keys());
+  o << "\n## Runs that start from recorded data\n\n`drops run` with logs of the real system "
+       "as its first data (docs/logs.md, \"Starting a run from recorded data\"): the logs' "
+       "columns and resampling are declared by the identify.* keys above.\n\n";
+  markdown_table(o, run_data_keys());
   for (const auto& t : registry.task_names()) {
     const TaskPlugin& p = registry.task(t);
     o << "\n## Task `" << t << "`\n\n" << p.description() << "\n\n";

@@ -162,8 +162,12 @@ class BlackDropsPlugin final : public AlgorithmPlugin {
       throw ConfigError("config key 'policy.balance.mode' = '" + s.at("policy.balance.mode") +
                         "': the task '" + setup.task->name() +
                         "' declares no goal state; use policy.balance.mode off");
-    return std::make_unique<algo::BlackDrops>(o);
+    algo::BlackDropsOptions with_data = o;
+    with_data.recorded_data = setup.recorded_data;
+    with_data.keep_first_episode = setup.keep_first_episode;
+    return std::make_unique<algo::BlackDrops>(with_data);
   }
+  bool takes_recorded_data(const Settings&) const override { return true; }
 
  private:
   const Registry& registry_;  // owns this plugin
@@ -475,6 +479,17 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
     generic(e.setup.action_names, "u", e.setup.task->action_dim());
   }
   check_setup_names(e.task, e.setup, algorithm.uses_prior(st));
+  // Recorded data (data.logs): read, resampled and checked before anything runs.
+  if (st.count("data.logs") && st.at("data.logs") != "[]" && !st.at("data.logs").empty()) {
+    if (!algorithm.takes_recorded_data(st))
+      throw ConfigError("config key 'data.logs' = '" + st.at("data.logs") + "': algorithm '" +
+                        e.algorithm + "' does not start from recorded data (black_drops does)");
+    if (!e.setup.task) throw ConfigError("config key 'data.logs': task '" + e.task + "' has none");
+    RunData data = read_run_data(st, e.setup.task->dt(), e.setup.state_names, e.setup.action_names);
+    e.setup.recorded_data = std::move(data.transitions);
+    e.setup.keep_first_episode = data.keep_first_episode;
+    for (auto& [k, v] : data.declaration) e.setup.declaration[k] = v;
+  }
   e.runner = algorithm.make(st, e.setup);
   e.state_files = algorithm.state_files(st, e.setup);
   e.uses_prior = algorithm.uses_prior(st);

@@ -20,6 +20,7 @@
 #include "drops/model/dataset.hpp"
 #include "drops/model/gp_dynamics.hpp"
 #include "drops/model/simulator_model.hpp"
+#include "sha256.hpp"
 
 namespace drops::experiment {
 
@@ -476,6 +477,71 @@ const std::vector<KeySpec>& no_task_keys() {
   return k;
 }
 
+const std::vector<KeySpec>& run_data_keys() {
+  static const std::vector<KeySpec> k = [] {
+    std::vector<KeySpec> v;
+    v.push_back(key("data.logs", "paths", "[]", "-",
+                    "drops run: logs (CSV files) of the real system whose transitions join the "
+                    "data before episode 1, declared and resampled to the task's dt as for drops "
+                    "identify (identify.columns.*, identify.time_scale, identify.bad_rows, "
+                    "identify.lowpass_hz, identify.derivative_window; docs/logs.md); relative: "
+                    "beside the configuration file, else in the working directory; [] = none"));
+    v.push_back(key("data.keep_first_episode", "bool", "false", "-",
+                    "drops run with data.logs: true keeps episode 1 as without logs (a random "
+                    "policy, or one planned on the prior alone) and learns from the logs from "
+                    "episode 2 on; false: episode 1 learns the model on the logs and plans on "
+                    "it"));
+    return v;
+  }();
+  return k;
+}
+
+RunData read_run_data(const Settings& st, double dt, const std::vector<std::string>& state_names,
+                      const std::vector<std::string>& action_names) {
+  RunData d;
+  const std::vector<std::string> files = get_names(st, "data.logs");
+  d.keep_first_episode = st.at("data.keep_first_episode") == "true";
+  if (files.empty()) return d;
+  LogColumns columns;
+  LogOptions options;
+  log_declaration(st, dt, state_names, action_names, &columns, &options);
+  d.declaration["data.logs"] = std::to_string(files.size());
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const std::string& f = files[i];
+    std::string text;
+    try {
+      text = read_file_text(f);
+    } catch (const Error& e) {
+      throw ConfigError("config key 'data.logs': " + std::string(e.what()));
+    }
+    RecordedLog log;
+    try {
+      log = resample_log(parse_log_csv(text, f, columns), columns, options);
+    } catch (const ConfigError& e) {
+      throw ConfigError("config key 'data.logs': " + std::string(e.what()));
+    }
+    const std::string n = "data.log." + std::to_string(i + 1);
+    const LogReport& r = log.report;
+    d.declaration[n] = f;
+    d.declaration[n + ".sha256"] = sha256_hex(text);
+    d.declaration[n + ".rows"] = std::to_string(r.rows);
+    d.declaration[n + ".dropped"] =
+        std::to_string(r.dropped_nonfinite + r.dropped_repeated_time + r.short_segment_rows);
+    d.declaration[n + ".transitions"] = std::to_string(r.transitions);
+    for (auto& t : log.transitions()) d.transitions.push_back(std::move(t));
+    d.reports.push_back(r);
+  }
+  if (d.transitions.size() < static_cast<std::size_t>(kMinRecordedTransitions))
+    throw Error(fmt::format(
+        "config key 'data.logs': the {} log(s) give {} transitions at dt = {} s, fewer than "
+        "the {} a run needs to learn a model from before its first episode (longer logs, or "
+        "data.logs: [] for a run without them)",
+        files.size(), d.transitions.size(), dt, kMinRecordedTransitions));
+  d.declaration["data.transitions"] = std::to_string(d.transitions.size());
+  d.declaration["data.keep_first_episode"] = d.keep_first_episode ? "true" : "false";
+  return d;
+}
+
 IdentifyOptions identify_options(const Settings& st, double dt,
                                  const std::vector<std::string>& state_names,
                                  const std::vector<std::string>& action_names) {
@@ -484,16 +550,28 @@ IdentifyOptions identify_options(const Settings& st, double dt,
   for (const auto& f : get_names(st, "identify.validation")) o.validation.emplace_back(f);
   if (o.logs.empty())
     throw ConfigError("config key 'identify.logs' is empty: name the logs to learn from");
-  o.log.dt = dt;
-  o.log.time_scale = get_double(st, "identify.time_scale");
-  o.log.bad_rows = st.at("identify.bad_rows") == "drop" ? BadRows::kDrop : BadRows::kError;
-  o.log.lowpass_hz = get_double(st, "identify.lowpass_hz");
-  o.log.derivative_window = get_double(st, "identify.derivative_window");
+  log_declaration(st, dt, state_names, action_names, &o.columns, &o.log);
   o.horizons = get_numbers(st, "identify.horizons");
   o.start_spacing = get_double(st, "identify.start_spacing");
   o.max_points = static_cast<int>(get_int(st, "identify.max_points"));
   o.seed = static_cast<std::uint64_t>(get_int(st, "seed"));
   o.threads = static_cast<int>(get_int(st, "threads"));
+  std::string why;
+  if (!o.IsValid(&why)) throw ConfigError("config: " + why);
+  return o;
+}
+
+void log_declaration(const Settings& st, double dt, const std::vector<std::string>& state_names,
+                     const std::vector<std::string>& action_names, LogColumns* columns,
+                     LogOptions* options) {
+  LogOptions& l = *options;
+  l = LogOptions{};
+  l.dt = dt;
+  l.time_scale = get_double(st, "identify.time_scale");
+  l.bad_rows = st.at("identify.bad_rows") == "drop" ? BadRows::kDrop : BadRows::kError;
+  l.lowpass_hz = get_double(st, "identify.lowpass_hz");
+  l.derivative_window = get_double(st, "identify.derivative_window");
+  IdentifyOptions o;
   o.columns.time = st.at("identify.columns.time");
   std::vector<std::string> state = get_names(st, "identify.columns.state");
   if (state.empty()) state = state_names;
@@ -539,8 +617,9 @@ IdentifyOptions identify_options(const Settings& st, double dt,
         "config key 'identify.columns.action' lists {} columns; the task has {} actions ({})",
         o.columns.action.size(), action_names.size(), fmt::join(action_names, ", ")));
   std::string why;
-  if (!o.IsValid(&why)) throw ConfigError("config: " + why);
-  return o;
+  if (!l.IsValid(&why)) throw ConfigError("config: " + why);
+  if (!o.columns.IsValid(&why)) throw ConfigError("config: " + why);
+  *columns = o.columns;
 }
 
 std::vector<std::filesystem::path> write_identify_directory(const std::filesystem::path& dir,

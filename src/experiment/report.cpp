@@ -153,7 +153,10 @@ std::vector<GroupReport> aggregate_runs(const std::vector<RunResult>& runs) {
       for (const auto& e : r->episodes) {
         if (!e.has_calibration || !std::isfinite(e.gap)) continue;
         // Episode 1 was predicted before any real data, by the prior simulator alone.
-        CalibrationSet& set = e.episode == 1 ? prior_only : e.replay ? replays : new_policies;
+        // (A run from recorded data planned episode 1 on a model learned from them.)
+        CalibrationSet& set = e.episode == 1 && !r->first_episode_on_recorded_data ? prior_only
+                              : e.replay                                           ? replays
+                                                                                   : new_policies;
         set.gaps.push_back(e.gap);
         set.inside += e.inside_band ? 1 : 0;
       }

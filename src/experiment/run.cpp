@@ -112,6 +112,13 @@ RunOutcome run_experiment(const Registry& registry, const Settings& settings,
                          e.uses_prior ? fmt::format(" (prior {})", e.setup.prior_label) : "",
                          episodes, e.seed, e.threads ? e.threads : hardware_threads()));
     out.line("run directory: " + dir->path().string());
+    if (!e.setup.recorded_data.empty())
+      out.line(fmt::format(
+          "recorded data: {} log(s), {} transitions (data.logs); {}",
+          e.setup.declaration.at("data.logs"), e.setup.recorded_data.size(),
+          e.setup.keep_first_episode
+              ? "episode 1 runs without them, the model learns from them from episode 2 on"
+              : "episode 1 learns the model on them"));
   }
   if (resuming) {
     if (!quiet) {

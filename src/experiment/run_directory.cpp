@@ -1209,6 +1209,14 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
           run.phi_actual.push_back(v.is_number() ? v.get<double>() : kNaN);
       run.state_names = s.at("state_names").get<std::vector<std::string>>();
       run.action_names = s.at("action_names").get<std::vector<std::string>>();
+      if (s.contains("task_record") && s["task_record"].contains("declaration")) {
+        const auto& d = s["task_record"]["declaration"];
+        if (d.contains("data.transitions") && d["data.transitions"].is_string()) {
+          run.recorded_transitions = std::atoi(d["data.transitions"].get<std::string>().c_str());
+          run.first_episode_on_recorded_data =
+              d.value("data.keep_first_episode", std::string("false")) != "true";
+        }
+      }
       static const std::vector<std::string> kEpisodeKeys = {
           "episode", "interaction_time_s", "real_return", "predicted_return", "solved",
           "random_policy", "phi", "model_learning_s", "policy_optimization_s", "evaluations",
@@ -1274,6 +1282,7 @@ RunResult read_run(const fs::path& dir, const Registry* registry) {
   run.report = run_report_info(std::move(run.report), run.uses_prior, run.uses_model);
 
   run.variant = run.model_type;
+  if (run.recorded_transitions > 0) run.variant += " + recorded data";
   return run;
 }
 

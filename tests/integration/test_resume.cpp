@@ -394,3 +394,42 @@ TEST(Resume, HexapodRunIsIdenticalWithOneAndTwoThreadsAndResumes) {
     EXPECT_GT(fs::exists(plots / f) ? fs::file_size(plots / f) : 0u, 10000u) << f;
 }
 #endif
+
+// A run that starts from recorded data (data.logs): killed after its first episode and resumed,
+// it continues to the episodes of an uninterrupted run; a log whose bytes changed since is
+// refused on resume, naming its digest.
+TEST(Resume, RunFromRecordedLogsResumesExactlyAndRefusesAChangedLog) {
+  const fs::path out = fresh_dir("resume", "logs");
+  // The log: the real trajectory of another seed's first episode (its last row has no action:
+  // dropped with identify.bad_rows=drop).
+  ASSERT_EQ(run_drops(kRun + " episodes=1 seed=11 --output " + out.string() + " --name src -q"), 0);
+  const fs::path log = out / "data.csv";
+  fs::copy_file(out / "src" / "episodes" / "001" / "real.csv", log);
+  const std::string with_logs =
+      kRun + " data.logs=[" + log.string() + "] identify.columns.time=t identify.bad_rows=drop";
+  ASSERT_EQ(run_drops(with_logs + " --output " + out.string() + " --name full -q"), 0);
+  const auto cp = nlohmann::json::parse(read_file(out / "full" / "checkpoint.json"));
+  // The checkpoint's data start with the log's transitions.
+  const auto& decl = cp["validation"]["task"]["declaration"];
+  ASSERT_TRUE(decl.contains("data.transitions")) << decl.dump();
+  const int recorded = std::stoi(decl["data.transitions"].get<std::string>());
+  EXPECT_GT(recorded, 10);
+  EXPECT_EQ(decl["data.log.1"], log.string());
+  EXPECT_GT(cp["data"]["x"].size(), static_cast<std::size_t>(recorded));
+
+  const pid_t pid = spawn_drops(with_logs + " --output " + out.string() + " --name part -q");
+  wait_for_checkpoint(pid, out / "part", 1);
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before it could be killed";
+  std::string err;
+  ASSERT_EQ(run_drops("run --resume " + (out / "part").string() + " -q", &err), 0) << err;
+  expect_same_episodes(out / "full", out / "part", 4);
+
+  // The log changed: a resume is refused, naming the digest.
+  std::ofstream(log, std::ios::app) << "# a comment changes the bytes\n";
+  EXPECT_NE(run_drops("run --resume " + (out / "part").string() + " episodes=5", &err), 0);
+  EXPECT_NE(err.find("data.log.1.sha256"), std::string::npos) << err;
+  fs::remove_all(out);
+}

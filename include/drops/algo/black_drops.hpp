@@ -60,6 +60,15 @@ struct BlackDropsOptions {
   /// it); each episode's K, closed-loop spectral radius on the model and the real episode's steps
   /// under the LQR are recorded in EpisodeRecord::details ("balance_*").
   control::BalanceOptions balance;
+  /// Recorded transitions (a real robot's logs, experiment::read_log) that join the data before
+  /// episode 1: every model learns from them and from the real episodes' transitions after
+  /// them, in this order. Empty: none (the algorithm as in the paper).
+  std::vector<Transition> recorded_data;
+  /// With recorded_data: false (default), episode 1 learns the model on the recorded data and
+  /// plans on it; true, episode 1 stays the episode without a learned model (a random policy, or
+  /// one planned on the prior alone) and the recorded data join the model from episode 2 on.
+  /// Ignored without recorded_data.
+  bool keep_first_episode = false;
   /// Monte-Carlo rollouts used to report the model's predicted return of each executed policy
   /// (always their mean, whatever search.rollouts.statistic), >= 1.
   int predicted_rollouts = 20;
@@ -93,6 +102,8 @@ using BlackDropsSummary = RunSummary;
 ///   episode 1: with a prior, optimise the policy on the prior alone; without, random theta;
 ///   then, for each next episode: learn the model on all transitions, optimise the policy on the
 ///   model (optimize_policy from the best real episode's theta), predict its return, run it.
+/// With options.recorded_data, the data start with them, and (unless keep_first_episode)
+/// episode 1 is an episode like the next ones: the model learned on the recorded data alone.
 /// task, real system and policy prototype are borrowed for the call. prior may be null only when
 /// the model uses none (options.uses_prior()). With `resume` (a state from on_state of a run with
 /// the same options), the run continues after resume->episodes_done; the summary then covers the

@@ -19,7 +19,8 @@ struct KeySpec {
   /// "int", "double", "bool", "string", "enum", "names", "interval", "path" (a string; relative:
   /// looked for in the configuration file's directory, then the working directory, and made
   /// absolute by load_settings_file), "list" (any YAML list, e.g. file names or
-  /// maps, read by the key's own reader), "numbers" (a list of numbers, each in the range)
+  /// maps, read by the key's own reader), "numbers" (a list of numbers, each in the range),
+  /// "paths" (a list of paths, each resolved as a "path")
   std::string type;
   std::string default_value;  ///< as YAML text ("" = derived, see doc)
   double min = 0, max = 0;    ///< numeric range (inclusive) when min < max
@@ -59,10 +60,10 @@ std::vector<KeySpec> schema(const Registry& registry, const std::string& task);
 /// values. An empty text gives the defaults.
 Settings load_settings(const Registry& registry, const std::string& yaml_text,
                        const std::vector<std::string>& overrides);
-/// Makes every relative value of a "path" key of settings' task absolute, as load_settings_file
-/// does for the file it reads: the path beside config_file when that exists, else relative to
-/// the working directory. Settings of an unknown task are left as they are. Not thread-safe with
-/// a concurrent change of the working directory.
+/// Makes every relative value of a "path" key (and each of a "paths" key) of settings' task
+/// absolute, as load_settings_file does for the file it reads: the path beside config_file when
+/// that exists, else relative to the working directory. Settings of an unknown task are left as
+/// they are. Not thread-safe with a concurrent change of the working directory.
 void resolve_path_keys(const Registry& registry, Settings& settings,
                        const std::string& config_file);
 /// Reads a YAML file; throws ConfigError when it cannot be read or parsed (with the file name).

@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -204,6 +205,52 @@ const std::vector<KeySpec>& no_task_keys();
 IdentifyOptions identify_options(const Settings& settings, double dt,
                                  const std::vector<std::string>& state_names,
                                  const std::vector<std::string>& action_names);
+
+/// The log declaration of identify.* alone (the columns and the resampling; identify_options
+/// without identify.logs and the validation options), shared by `drops identify` and runs that
+/// start from recorded data (data.logs). dt: the task's control period (s); state_names,
+/// action_names: the task's. Throws ConfigError naming the key as identify_options does.
+void log_declaration(const Settings& settings, double dt,
+                     const std::vector<std::string>& state_names,
+                     const std::vector<std::string>& action_names, LogColumns* columns,
+                     LogOptions* options);
+
+// ---------------------------------------------------------------------------------------------
+// Runs that start from recorded data (the keys data.*; docs/logs.md).
+
+/// The keys data.* (schema(): every task's schema has them; docs/configuration.md): data.logs
+/// (a list of paths: CSV logs declared and resampled by identify.columns.* and the resampling
+/// keys of identify.*) and data.keep_first_episode. Thread-safe.
+const std::vector<KeySpec>& run_data_keys();
+
+/// The recorded data of a run: the transitions of data.logs, in file and time order, and what
+/// was read.
+struct RunData {
+  std::vector<Transition> transitions;  ///< every log's transitions, in order
+  std::vector<LogReport> reports;       ///< one per log, in order
+  bool keep_first_episode = false;      ///< data.keep_first_episode
+  /// What the run records and compares on resume (TaskSetup::declaration): "data.logs" (the
+  /// number of logs), per log i (1-based) "data.log.<i>" (its path as resolved),
+  /// "data.log.<i>.sha256" (its bytes' digest), "data.log.<i>.rows", "data.log.<i>.dropped"
+  /// (rows dropped and rows of short segments), "data.log.<i>.transitions", then
+  /// "data.transitions" (the total) and "data.keep_first_episode". Empty without data.logs.
+  std::map<std::string, std::string> declaration;
+};
+
+/// Fewest recorded transitions a run accepts from data.logs in total (the model's kernels are
+/// fitted on them before any real episode).
+constexpr int kMinRecordedTransitions = 10;
+
+/// Reads data.logs (empty: an empty RunData, nothing read) for a task of control period dt (s)
+/// and these state and action names (each log through parse_log_csv and resample_log with
+/// log_declaration's columns and options, so that a log's digest is that of the bytes parsed).
+/// Throws ConfigError naming the key or the file: a missing column (the file's columns listed),
+/// a log that cannot be read; drops::Error naming the file, the line and the column for the
+/// rest of read_log's errors (a log sampled more coarsely than dt among them), and when the logs
+/// give fewer than kMinRecordedTransitions transitions. Nothing is written. Thread-safe.
+RunData read_run_data(const Settings& settings, double dt,
+                      const std::vector<std::string>& state_names,
+                      const std::vector<std::string>& action_names);
 
 /// Writes `<dir>` (created; files through write_file_atomically, so nothing is half-written):
 /// config.yaml (config_yaml as given), summary.json (what IdentifySummary holds), phi.csv (name,

@@ -193,6 +193,11 @@ struct TaskSetup {
   /// with prior.model set, make_experiment replaces `prior`, `prior_parameters` and
   /// `phi_actual` (unknown: NaN) by the file's (make_description_prior). Empty: none.
   std::optional<JointDeclaration> joints;
+  /// The recorded transitions of data.logs (read_run_data), filled by make_experiment after
+  /// TaskPlugin::make (a task leaves it empty); an algorithm whose plugin takes recorded data
+  /// (AlgorithmPlugin::takes_recorded_data) starts its data with them.
+  std::vector<Transition> recorded_data;
+  bool keep_first_episode = false;  ///< data.keep_first_episode
   /// The problem the algorithm runs on (pointers into this setup).
   algo::Problem problem() const;
 };
@@ -251,6 +256,12 @@ class AlgorithmPlugin {
   virtual bool uses_model(const Settings& settings) const {
     (void)settings;
     return true;
+  }
+  /// Whether make() uses TaskSetup::recorded_data (data.logs); make_experiment refuses data.logs
+  /// for an algorithm that does not. Default: false.
+  virtual bool takes_recorded_data(const Settings& settings) const {
+    (void)settings;
+    return false;
   }
   /// Builds the algorithm for validated settings and the built task. Throws ConfigError naming
   /// the key on invalid combinations.

@@ -280,8 +280,14 @@ struct RunResult {
   std::string prior;       ///< the starting prior's label (summary.json "prior")
   /// Panel (run_report_info), metric, success criterion, labels and units.
   ReportInfo report;
-  /// Group label: model_type (aggregate_campaign appends " key=value" per variant axis).
+  /// Group label: model_type, with " + recorded data" for a run that started from data.logs
+  /// (aggregate_campaign appends " key=value" per variant axis).
   std::string variant;
+  /// Transitions of data.logs the run started from (summary.json's task_record declaration
+  /// "data.transitions"); 0: none.
+  int recorded_transitions = 0;
+  /// Whether episode 1 planned on a model learned from them (data.keep_first_episode false).
+  bool first_episode_on_recorded_data = false;
   std::int64_t seed = -1;                   ///< the run's seed; -1 when unknown
   int episodes_planned = 0;                 ///< episodes the run was configured for
   std::vector<std::string> phi_names;       ///< names of phi's components
