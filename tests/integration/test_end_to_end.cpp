@@ -121,6 +121,8 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
   std::sort(files.begin(), files.end());
   for (const auto& file : files) {
     const std::string name = file.stem().string();
+    // drops identify's configurations (task: none) are not for drops run.
+    if (name.rfind("identify-", 0) == 0) continue;
     SCOPED_TRACE(name);
     std::ifstream in(file);
     std::stringstream text;
