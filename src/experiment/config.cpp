@@ -219,6 +219,11 @@ std::string read_config_file(const std::string& path) {
   }
 }
 
+// A task whose schema() exists: a registered task, or kNoTask (drops identify without a task).
+bool has_schema(const Registry& registry, const std::string& task) {
+  return task == kNoTask || registry.has_task(task);
+}
+
 /// Every key of the registry: base, algorithms', every task's (for the keys of other tasks).
 bool known_anywhere(const Registry& registry, const std::string& key) {
   for (const auto& s : base_keys())
@@ -360,8 +365,7 @@ void resolve_path_keys(const Registry& registry, Settings& settings,
   // A relative "path" key: in the configuration file's directory, then the working directory.
   namespace fs = std::filesystem;
   const auto task = settings.find("task");
-  if (task == settings.end() || !(registry.has_task(task->second) || task->second == kNoTask))
-    return;
+  if (task == settings.end() || !has_schema(registry, task->second)) return;
   for (const auto& spec : schema(registry, task->second)) {
     const auto resolve = [&](std::string& v) {
       if (v.empty() || fs::path(v).is_absolute()) return;
@@ -441,7 +445,7 @@ YAML::Node leaf_node(const KeySpec* spec, const std::string& v) {
 std::string to_yaml(const Registry& registry, const Settings& settings) {
   std::vector<KeySpec> keys;
   const auto task = settings.find("task");
-  if (task != settings.end() && (registry.has_task(task->second) || task->second == kNoTask))
+  if (task != settings.end() && has_schema(registry, task->second))
     keys = schema(registry, task->second);
   else
     keys = base_keys();
