@@ -1,6 +1,11 @@
 // Run-time choice of the predict_block variant (compiled for baseline x86-64).
 #include "predict_kernels.hpp"
 
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <initializer_list>
+
 namespace drops::gp::kernels {
 
 bool supported(Isa isa) {
@@ -16,10 +21,34 @@ bool supported(Isa isa) {
   return false;
 }
 
+namespace {
+
+/// The widest variant this CPU runs, or the one DROPS_GP_KERNEL names (avx512, avx2, generic)
+/// when the CPU runs it: a way to measure on an AVX-512 host what an AVX2-only one gets. A value
+/// that is not a variant, or one the CPU cannot run, is reported on stderr once and ignored.
+Isa choose_isa() {
+  const Isa widest = supported(Isa::kAvx512) ? Isa::kAvx512
+                     : supported(Isa::kAvx2) ? Isa::kAvx2
+                                             : Isa::kGeneric;
+  const char* env = std::getenv("DROPS_GP_KERNEL");
+  if (env == nullptr || *env == '\0') return widest;
+  for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kGeneric}) {
+    if (std::strcmp(env, isa_name(isa)) != 0) continue;
+    if (supported(isa)) return isa;
+    std::fprintf(stderr, "drops: DROPS_GP_KERNEL=%s: this CPU cannot run it; using %s\n", env,
+                 isa_name(widest));
+    return widest;
+  }
+  std::fprintf(stderr,
+               "drops: DROPS_GP_KERNEL=%s is not avx512, avx2 or generic; using %s\n", env,
+               isa_name(widest));
+  return widest;
+}
+
+}  // namespace
+
 Isa selected_isa() {
-  static const Isa isa = supported(Isa::kAvx512) ? Isa::kAvx512
-                         : supported(Isa::kAvx2) ? Isa::kAvx2
-                                                 : Isa::kGeneric;
+  static const Isa isa = choose_isa();
   return isa;
 }
 

@@ -71,7 +71,8 @@ void pair_weights(const PairArgs& args);
 /// pair_weights with a given variant (tests). Precondition: supported(isa).
 void pair_weights(Isa isa, const PairArgs& args);
 
-/// The variant predict_block uses on this CPU (chosen once, by __builtin_cpu_supports).
+/// The variant predict_block uses on this CPU (chosen once, by __builtin_cpu_supports: the
+/// widest one, or the one the environment variable DROPS_GP_KERNEL names if the CPU runs it).
 Isa selected_isa();
 /// True when this CPU can run variant `isa`.
 bool supported(Isa isa);
