@@ -82,7 +82,7 @@ struct ModelOptions {
   /// learn from: kAll, the recorded ones and their reflections (2N points), or kRecorded, the
   /// N recorded ones, after which the GPs are conditioned on all 2N with the kernels so fitted
   /// (the search and fits cost about 8 times less; the predictions use every point either way).
-  ReflectedFit reflected_fit = ReflectedFit::kAll;
+  ReflectedFit reflected_fit = ReflectedFit::kRecorded;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
 };
