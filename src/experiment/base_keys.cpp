@@ -112,7 +112,8 @@ KeyTable<BaseOptions> make_base_key_table() {
             "mirror image of every state the robot visited, at up to 8 times the cost of "
             "learning");
   t.add("model.reflected_fit", [=](auto& o) -> auto& { return model(o).reflected_fit; })
-      .values({{"all", model::ReflectedFit::kAll}, {"recorded", model::ReflectedFit::kRecorded}})
+      .values({{"all", model::ReflectedFit::kAll}, {"recorded", model::ReflectedFit::kRecorded},
+               {"search", model::ReflectedFit::kSearch}})
       .help("with reflect_transitions: GP-MI's phi search and the kernel fits learn from every "
             "transition and its reflection (all), or from the recorded transitions only "
             "(recorded: about 8 times cheaper), after which the GPs are conditioned on both");

@@ -153,13 +153,15 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   // ModelOptions::reflected_fit: the phi search and the kernel fits on the recorded rows (the
   // first half of d) only; the GPs are then conditioned on every row.
   const bool fit_recorded = reflection_ && options_.reflected_fit == ReflectedFit::kRecorded;
+  const bool search_recorded =
+      fit_recorded || (reflection_ && options_.reflected_fit == ReflectedFit::kSearch);
   Dataset recorded;
-  if (fit_recorded) {
+  if (search_recorded) {
     std::vector<int> first(static_cast<std::size_t>(s.points));
     for (int n = 0; n < s.points; ++n) first[static_cast<std::size_t>(n)] = n;
     recorded = d.rows(first);
   }
-  const Dataset& fit_data = fit_recorded ? recorded : d;
+  const Dataset& fit_data = search_recorded ? recorded : d;
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.
   for (auto& g : gps_) g.set_variance_points(0);

@@ -39,7 +39,7 @@ struct MiOptions {
 
 /// Options of every model variant.
 /// ModelOptions::reflected_fit.
-enum class ReflectedFit { kAll, kRecorded };
+enum class ReflectedFit { kAll, kRecorded, kSearch };
 
 struct ModelOptions {
   /// The built-in variant make_model builds. The experiment layer selects a model by its
