@@ -3,16 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
-
-#include <unistd.h>
 
 #include "drops/core/errors.hpp"
 #include "drops/pendubot/pendubot.hpp"
 #include "drops/experiment/campaign.hpp"
-#include "drops/experiment/run.hpp"
 #include "drops/model/gp_dynamics.hpp"
 #include "drops/model/simulator_model.hpp"
 #include "fixtures.hpp"
@@ -522,24 +517,4 @@ TEST(Config, TheAlgorithmKeyListsTheRegisteredAlgorithmsEachWithItsSection) {
     const auto at = md.find("## Algorithm `" + a + "`\n\n" + registry().algorithm(a).description());
     EXPECT_NE(at, std::string::npos) << a;
   }
-}
-
-// A run directory written before model.reflected_fit existed (its config.yaml lacks the key)
-// resumes with the value of the code it was started with ("all"), not today's default; one that
-// records the key keeps it; a new run takes the default.
-TEST(Config, AResumedRunThatPredatesReflectedFitKeepsTheFitItWasStartedWith) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("drops-test-reflected-fit-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  auto write = [&](const std::string& yaml) {
-    std::ofstream(dir / "config.yaml") << yaml;
-    return experiment::resume_settings(registry(), dir, {});
-  };
-  EXPECT_EQ(write("task: pendubot\nmodel:\n  type: gp_mi\n").at("model.reflected_fit"), "all");
-  EXPECT_EQ(write("task: pendubot\nmodel:\n  reflected_fit: recorded\n").at("model.reflected_fit"),
-            "recorded");
-  EXPECT_EQ(write("task: pendubot\nmodel:\n  reflected_fit: all\n").at("model.reflected_fit"),
-            "all");
-  EXPECT_EQ(experiment::load_settings(registry(), "", {}).at("model.reflected_fit"), "recorded");
-  fs::remove_all(dir);
 }

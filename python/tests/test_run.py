@@ -155,3 +155,30 @@ def test_a_run_starts_from_recorded_logs_and_records_them(tmp_path, drops_progra
         drops.run(GP_MI_CONFIG, [*TINY[1:], f"data.logs=[{log}]"], output=tmp_path, name="bad",
                   quiet=True, progress=lambda line: None)
     assert not (tmp_path / "bad").exists()
+
+
+def test_the_gp_kernel_variant_named_in_the_environment_gives_the_same_episodes(tmp_path,
+                                                                               drops_program):
+    """DROPS_GP_KERNEL picks the prediction kernel's variant (docs/benchmarks.md); every variant
+    computes the same bits, so the episodes equal the default's; a name that is not a variant is
+    reported once and ignored."""
+    import os
+    import subprocess
+    from conftest import DROPS_BINARY
+
+    def run(name, kernel):
+        env = dict(os.environ, DROPS_GP_KERNEL=kernel)
+        p = subprocess.run([DROPS_BINARY, "run", GP_MI_CONFIG, *TINY, "--output", tmp_path,
+                            "--name", name, "-q"], capture_output=True, text=True, env=env,
+                           timeout=600)
+        assert p.returncode == 0, p.stderr
+        rows = [{k: v for k, v in r.items() if k not in TIMING}
+                for r in read_csv(tmp_path / name / "episodes.csv")]
+        return rows, p.stderr
+
+    default, _ = run("default", "")
+    generic, said = run("generic", "generic")
+    assert generic == default and "DROPS_GP_KERNEL" not in said
+    bogus, said = run("bogus", "avx3")
+    assert bogus == default
+    assert "DROPS_GP_KERNEL=avx3 is not avx512, avx2 or generic" in said

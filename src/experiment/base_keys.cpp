@@ -111,12 +111,6 @@ KeyTable<BaseOptions> make_base_key_table() {
             "symmetry (data augmentation; a task without one rejects true): the model knows the "
             "mirror image of every state the robot visited, at up to 8 times the cost of "
             "learning");
-  t.add("model.reflected_fit", [=](auto& o) -> auto& { return model(o).reflected_fit; })
-      .values({{"all", model::ReflectedFit::kAll}, {"recorded", model::ReflectedFit::kRecorded},
-               {"search", model::ReflectedFit::kSearch}})
-      .help("with reflect_transitions: GP-MI's phi search and the kernel fits learn from every "
-            "transition and its reflection (all), or from the recorded transitions only "
-            "(recorded: about 8 times cheaper), after which the GPs are conditioned on both");
   t.add("model.rprop.iterations", [=](auto& o) -> auto& { return model(o).rprop.max_iterations; })
       .range(1, 100000)
       .help("Rprop iterations of the final kernel fit per output GP");

@@ -150,36 +150,21 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   Dataset d = make_dataset(reflection_ ? reflected : data, task_.get(), E_, U_);
   s.points = reflection_ ? d.size() / 2 : d.size();  // recorded transitions
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
-  // ModelOptions::reflected_fit: the phi search and the kernel fits on the recorded rows (the
-  // first half of d) only; the GPs are then conditioned on every row.
-  const bool fit_recorded = reflection_ && options_.reflected_fit == ReflectedFit::kRecorded;
-  const bool search_recorded =
-      fit_recorded || (reflection_ && options_.reflected_fit == ReflectedFit::kSearch);
-  Dataset recorded;
-  if (search_recorded) {
-    std::vector<int> first(static_cast<std::size_t>(s.points));
-    for (int n = 0; n < s.points; ++n) first[static_cast<std::size_t>(n)] = n;
-    recorded = d.rows(first);
-  }
-  const Dataset& fit_data = search_recorded ? recorded : d;
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.
   for (auto& g : gps_) g.set_variance_points(0);
   // ModelOptions::inducing_points: sparse GPs where the data exceed m (the search's and the
   // final fit's separately).
   const int M = options_.inducing_points;
-  const int search_points = options_.gp_mi.max_points > 0
-                                ? std::min(options_.gp_mi.max_points, fit_data.size())
-                                : fit_data.size();
+  const int search_points =
+      options_.gp_mi.max_points > 0 ? std::min(options_.gp_mi.max_points, d.size()) : d.size();
   // GP-MI (Algorithm 2): phi, warm-started from the previous episode's phi and kernels.
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_) {
     activate(M > 0 && search_points > M);
     const GpMiSummary mi =
         sparse_active_
-            ? identify_phi(*prior_, params_, fit_data, options_.gp_mi, options_.rprop, sparse_,
-                           progress)
-            : identify_phi(*prior_, params_, fit_data, options_.gp_mi, options_.rprop, gps_,
-                           progress);
+            ? identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, sparse_, progress)
+            : identify_phi(*prior_, params_, d, options_.gp_mi, options_.rprop, gps_, progress);
     phi_ = mi.phi;
     params_.values = phi_;  // warm start of the next episode
     s.phi_evaluations = mi.evaluations;
@@ -213,15 +198,6 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
     return s;
   }
   if (condition_only_) {
-    s.log_likelihoods.resize(E_);
-    for (int i = 0; i < E_; ++i) {
-      auto& g = gps_[static_cast<std::size_t>(i)];
-      g.compute(d.gp_in, targets.col(i));
-      s.log_likelihoods[i] = g.log_marginal_likelihood();
-    }
-  } else if (fit_recorded) {
-    fit_output_gps(gps_, fit_data.gp_in, targets.topRows(fit_data.size()), options_.rprop,
-                   &s.rprop_iterations);
     s.log_likelihoods.resize(E_);
     for (int i = 0; i < E_; ++i) {
       auto& g = gps_[static_cast<std::size_t>(i)];

@@ -38,9 +38,6 @@ struct MiOptions {
 };
 
 /// Options of every model variant.
-/// ModelOptions::reflected_fit.
-enum class ReflectedFit { kAll, kRecorded, kSearch };
-
 struct ModelOptions {
   /// The built-in variant make_model builds. The experiment layer selects a model by its
   /// registered factory instead (BlackDropsOptions::model_factory, of model.type) and leaves this
@@ -78,11 +75,6 @@ struct ModelOptions {
   /// (sign .* mean, var). The constructor throws
   /// InvalidArgument when the task declares no reflection.
   bool reflect_transitions = false;
-  /// With reflect_transitions: the transitions GP-MI's phi search and the kernel fits (Rprop)
-  /// learn from: kAll, the recorded ones and their reflections (2N points), or kRecorded, the
-  /// N recorded ones, after which the GPs are conditioned on all 2N with the kernels so fitted
-  /// (the search and fits cost about 8 times less; the predictions use every point either way).
-  ReflectedFit reflected_fit = ReflectedFit::kRecorded;
   /// Returns true when every field is in range; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
 };
