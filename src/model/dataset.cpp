@@ -17,7 +17,11 @@ MatrixXd take_rows(const MatrixXd& m, const std::vector<int>& idx) {
 }  // namespace
 
 Dataset Dataset::rows(const std::vector<int>& idx) const {
-  return Dataset{take_rows(x, idx), take_rows(u, idx), take_rows(dx, idx), take_rows(gp_in, idx)};
+  Dataset d{take_rows(x, idx), take_rows(u, idx), take_rows(dx, idx), take_rows(gp_in, idx), {}};
+  bool every_row = static_cast<int>(idx.size()) == size();
+  for (std::size_t k = 0; every_row && k < idx.size(); ++k) every_row = idx[k] == static_cast<int>(k);
+  if (every_row) d.pairs = pairs;
+  return d;
 }
 
 Dataset make_dataset(const std::vector<Transition>& data, const Task* task, int E, int U) {

@@ -12,6 +12,31 @@
 
 namespace drops::model {
 namespace {
+
+/// The layout of a dataset of n transitions followed by their reflections (Dataset::pairs):
+/// each GP input column must be the same or the opposite in every reflected row (the
+/// reflection flips inputs in sign only, which leaves the SE-ARD kernel unchanged); otherwise
+/// no layout (n = 0) and the fits run on all rows.
+ReflectedPairs reflected_pairs(const Dataset& d, int n, const VectorXd& state_sign) {
+  ReflectedPairs p;
+  const Eigen::Index D = d.gp_in.cols();
+  if (n < 1 || d.size() != 2 * n || D < 1) return p;
+  VectorXd flip(D);
+  for (Eigen::Index c = 0; c < D; ++c) {
+    const auto a = d.gp_in.col(c).head(n), b = d.gp_in.col(c).tail(n);
+    const double scale = 1e-12 * (1.0 + a.cwiseAbs().maxCoeff());
+    if ((b - a).cwiseAbs().maxCoeff() <= scale)
+      flip[c] = 1;
+    else if ((b + a).cwiseAbs().maxCoeff() <= scale)
+      flip[c] = -1;
+    else
+      return p;
+  }
+  p.n = n;
+  p.flip = flip;
+  p.sign = state_sign;
+  return p;
+}
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -150,6 +175,7 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   Dataset d = make_dataset(reflection_ ? reflected : data, task_.get(), E_, U_);
   s.points = reflection_ ? d.size() / 2 : d.size();  // recorded transitions
   if (d.size() == 0) throw InvalidArgument("learn: no transitions");
+  if (reflection_) d.pairs = reflected_pairs(d, s.points, reflection_->state_sign);
   // The variance subset's factors (ModelOptions::variance_points) are made once, after the
   // final fit, for the rollouts; not at each of the many refits of the phi search.
   for (auto& g : gps_) g.set_variance_points(0);
@@ -205,7 +231,8 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
       s.log_likelihoods[i] = g.log_marginal_likelihood();
     }
   } else {
-    s.log_likelihoods = fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations);
+    s.log_likelihoods =
+        fit_output_gps(gps_, d.gp_in, targets, options_.rprop, &s.rprop_iterations, d.pairs);
   }
   if (options_.type == ModelType::kGpMi && !params_.tunable.empty() && !condition_only_)
     s.phi_posterior = phi_posterior(*prior_, params_, d, gps_);

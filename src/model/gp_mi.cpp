@@ -23,6 +23,7 @@
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
+#include "drops/gp/reflected_pairs.hpp"
 #include "drops/gp/sparse_gp.hpp"
 #include "drops/opt/subplex.hpp"
 
@@ -65,17 +66,46 @@ int refit(gp::SparseGp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>&
   return its;
 }
 
+/// An exact GP on data laid out as reflected pairs (Dataset::pairs) whose targets follow the
+/// layout (row n + i = sign times row i, to round-off): the kernel fit on the n recorded rows
+/// (gp::fit_reflected_pairs, the 2n fit's search), then the GP computed on all rows. Other
+/// cases: refit().
+int refit(gp::Gp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
+          const gp::RpropOptions& rprop, const ReflectedPairs& pairs, Eigen::Index output) {
+  const Eigen::Index n = pairs.n;
+  if (n > 0 && in.rows() == 2 * n && !rprop.penalty) {
+    const double sign = pairs.sign[output];
+    const double scale = 1.0 + t.cwiseAbs().maxCoeff();
+    if ((t.tail(n) - sign * t.head(n)).cwiseAbs().maxCoeff() <= 1e-9 * scale) {
+      VectorXd h = g.h_params();
+      const int its = gp::fit_reflected_pairs(h, in.topRows(n), pairs.flip, t.head(n), sign,
+                                              rprop)
+                          .iterations;
+      g.compute(in, t);
+      g.set_h_params(h);
+      return its;
+    }
+  }
+  return refit(g, in, t, rprop);
+}
+int refit(gp::SparseGp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
+          const gp::RpropOptions& rprop, const ReflectedPairs& /*pairs*/, Eigen::Index /*output*/) {
+  return refit(g, in, t, rprop);
+}
+
 template <class G>
 VectorXd fit_output_gps_impl(std::vector<G>& gps, const MatrixXd& in, const MatrixXd& targets,
-                             const gp::RpropOptions& rprop, long* iterations) {
+                             const gp::RpropOptions& rprop, long* iterations,
+                             const ReflectedPairs& pairs = {}) {
   check_size("fit_output_gps: target columns vs GPs", static_cast<long>(gps.size()), targets.cols());
   const auto E = static_cast<Eigen::Index>(gps.size());
   VectorXd ll(E);
   std::vector<int> its(gps.size(), 0);
   parallel_for(gps.size(), [&](std::size_t i) {
     auto& g = gps[i];
-    its[i] = refit(g, in, targets.col(static_cast<Eigen::Index>(i)), rprop);
-    ll[static_cast<Eigen::Index>(i)] = g.log_marginal_likelihood();
+    const auto e = static_cast<Eigen::Index>(i);
+    its[i] = refit(g, in, targets.col(e), rprop, pairs, e);
+    ll[e] = g.log_marginal_likelihood();
   });
   for (int k : its) *iterations += k;
   return ll;
@@ -215,7 +245,7 @@ GpMiSummary alternating_search(const MeanFunction& prior, const PriorParameters&
     MatrixXd targets;
     if (!residuals(prior, d, s.phi, targets, &s.nonfinite_prior_outputs))
       break;  // keep phi; the caller's final fit reports the error
-    fit_output_gps_impl(gps, d.gp_in, targets, inner, &s.rprop_iterations);
+    fit_output_gps_impl(gps, d.gp_in, targets, inner, &s.rprop_iterations, d.pairs);
     // (b) phi with the kernels fixed.
     PriorParameters p = parameters;
     p.values = s.phi;
@@ -286,8 +316,9 @@ double gp_mi_score(const VectorXd& ll, GpMiScore score) {
 }
 
 VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
-                        const gp::RpropOptions& rprop, long* iterations) {
-  return fit_output_gps_impl(gps, in, targets, rprop, iterations);
+                        const gp::RpropOptions& rprop, long* iterations,
+                        const ReflectedPairs& pairs) {
+  return fit_output_gps_impl(gps, in, targets, rprop, iterations, pairs);
 }
 
 VectorXd fit_output_gps(std::vector<gp::SparseGp>& gps, const MatrixXd& in,
@@ -311,7 +342,9 @@ GpMiSummary identify_phi_impl(const MeanFunction& prior, const PriorParameters& 
   // The kernel fits inside the search: the final fit's options with fewer iterations.
   gp::RpropOptions inner = rprop;
   inner.max_iterations = options.inner_rprop_iterations;
-  const Dataset d = data.rows(subsample(data.size(), options.max_points));
+  const Dataset d = options.max_points > 0 && data.size() > options.max_points
+                        ? data.rows(subsample(data.size(), options.max_points))
+                        : data;
   // A purely discrete phi is searched nested: with kernels fitted to one candidate's residuals
   // (alternating search), every other candidate is scored against them and the search stays
   // where it started (measured on a family of 7 discrete priors).

@@ -10,12 +10,27 @@
 
 namespace drops::model {
 
+/// The layout of a dataset that holds n transitions and then their mirror images (a task's
+/// reflection, ModelOptions::reflect_transitions): row n + i is row i reflected, its GP inputs
+/// flipped in sign column by column (flip, D entries of +1 or -1) and output e's residual target
+/// multiplied by sign[e]. The exact GPs' kernel fits then run on the n recorded rows
+/// (gp::fit_reflected_pairs): the same fits as on all 2n rows, up to round-off, at a quarter of
+/// the cubic cost. n = 0: no such layout.
+struct ReflectedPairs {
+  int n = 0;
+  VectorXd flip;  ///< dim D: the GP inputs' signs under the reflection
+  VectorXd sign;  ///< dim E: the outputs' signs under the reflection
+};
+
 /// N transitions as matrices, one transition per row.
 struct Dataset {
   MatrixXd x;      ///< N x E raw states
   MatrixXd u;      ///< N x U actions
   MatrixXd dx;     ///< N x E state differences (the GP targets before subtracting the prior)
   MatrixXd gp_in;  ///< N x (O + U) GP inputs [task.observe(x), u]; 0 columns without a task
+  /// Set by the model when the rows are n transitions and then their reflections (n = 0
+  /// otherwise); rows() keeps it only when it takes every row in order.
+  ReflectedPairs pairs;
   int size() const { return static_cast<int>(x.rows()); }
   /// The rows `idx` of every matrix (indices in [0, N), not checked).
   Dataset rows(const std::vector<int>& idx) const;

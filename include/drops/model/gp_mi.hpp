@@ -209,8 +209,13 @@ double gp_mi_score(const VectorXd& ll, GpMiScore score);
 /// Rprop from the GP's current hyper-parameters (warm start). gps: E GPs on in.cols() inputs;
 /// in: N x D; targets: N x E. Returns the per-output log marginal likelihoods (dim E) and adds
 /// the Rprop iterations to *iterations. Throws NumericalError from a failing factorisation.
+/// With pairs (n > 0, in's rows n transitions then their reflections, Dataset::pairs) and an
+/// output whose targets follow the layout to round-off (1e-9 relative), Rprop runs on the n
+/// recorded rows by gp::fit_reflected_pairs: the 2n fit up to round-off, at a quarter of the
+/// cubic cost (not with rprop.penalty; the GP is then computed on all 2n rows).
 VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
-                        const gp::RpropOptions& rprop, long* iterations);
+                        const gp::RpropOptions& rprop, long* iterations,
+                        const ReflectedPairs& pairs = {});
 /// The same with sparse output GPs: each chooses its inducing inputs among the rows of `in` for
 /// its current kernel (gp::SparseGp::compute), is fitted with Rprop on its bound, then chooses
 /// them again for the fitted kernel; the bounds returned are with those. O(E N M^2) per Rprop
