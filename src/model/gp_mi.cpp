@@ -78,12 +78,17 @@ int refit(gp::Gp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
     const double scale = 1.0 + t.cwiseAbs().maxCoeff();
     if ((t.tail(n) - sign * t.head(n)).cwiseAbs().maxCoeff() <= 1e-9 * scale) {
       VectorXd h = g.h_params();
-      const int its = gp::fit_reflected_pairs(h, in.topRows(n), pairs.flip, t.head(n), sign,
-                                              rprop)
-                          .iterations;
-      g.compute(in, t);
-      g.set_h_params(h);
-      return its;
+      try {
+        const int its = gp::fit_reflected_pairs(h, in.topRows(n), pairs.flip, t.head(n), sign,
+                                                rprop)
+                            .iterations;
+        g.compute(in, t);
+        g.set_h_params(h);
+        return its;
+      } catch (const NumericalError&) {
+        // The start does not factorise without the jitter the 2n GP adds (Gp::compute): points
+        // on the mirror plane make A - B nearly singular. The 2n fit below handles it.
+      }
     }
   }
   return refit(g, in, t, rprop);

@@ -212,7 +212,9 @@ double gp_mi_score(const VectorXd& ll, GpMiScore score);
 /// With pairs (n > 0, in's rows n transitions then their reflections, Dataset::pairs) and an
 /// output whose targets follow the layout to round-off (1e-9 relative), Rprop runs on the n
 /// recorded rows by gp::fit_reflected_pairs: the 2n fit up to round-off, at a quarter of the
-/// cubic cost (not with rprop.penalty; the GP is then computed on all 2n rows).
+/// cubic cost (not with rprop.penalty; the GP is then computed on all 2n rows). When the start
+/// cannot be factorised without jitter (points on the mirror plane), that output is fitted on
+/// all 2n rows as without pairs.
 VectorXd fit_output_gps(std::vector<gp::Gp>& gps, const MatrixXd& in, const MatrixXd& targets,
                         const gp::RpropOptions& rprop, long* iterations,
                         const ReflectedPairs& pairs = {});
