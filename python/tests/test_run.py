@@ -4,13 +4,15 @@ files; it resumes and extends like `drops run --resume`."""
 
 import csv
 import json
+import os
 import pathlib
+import subprocess
 
 import numpy as np
 import pytest
 
 import drops
-from conftest import GP_MI_CONFIG, TINY, run_cli
+from conftest import DROPS_BINARY, GP_MI_CONFIG, TINY, run_cli
 
 TIMING = {"model_learning_s", "policy_optimization_s"}
 
@@ -162,10 +164,6 @@ def test_the_gp_kernel_variant_named_in_the_environment_gives_the_same_episodes(
     """DROPS_GP_KERNEL picks the prediction kernel's variant (docs/benchmarks.md); every variant
     computes the same bits, so the episodes equal the default's; a name that is not a variant is
     reported once and ignored."""
-    import os
-    import subprocess
-    from conftest import DROPS_BINARY
-
     def run(name, kernel):
         env = dict(os.environ, DROPS_GP_KERNEL=kernel)
         p = subprocess.run([DROPS_BINARY, "run", GP_MI_CONFIG, *TINY, "--output", tmp_path,

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -41,7 +42,7 @@ void check(const VectorXd& h, const MatrixXd& X, const VectorXd& flip, const Vec
 /// Per-thread buffers (N x N), resized only when N changes: an Rprop fit evaluates the same
 /// shapes hundreds of times.
 struct Buffers {
-  MatrixXd A, B, Cp, Cm, Wp, Wm, T;
+  MatrixXd A, B, Cp, Cm, Wp, Wm;
 };
 Buffers& buffers() {
   thread_local Buffers b;
@@ -135,18 +136,16 @@ RpropSummary fit_reflected_pairs(VectorXd& h, const MatrixXd& X, const VectorXd&
   MatrixXd X2(2 * X.rows(), X.cols());
   X2.topRows(X.rows()) = X;
   X2.bottomRows(X.rows()) = X * flip.asDiagonal();
-  VectorXd at = h;
+  // apply evaluates the likelihood and its gradient together (one factorisation per iterate);
+  // evaluate and value hand them out.
   double value = 0;
   VectorXd gradient;
-  bool ok = false;
   detail::RpropTarget target;
   target.apply = [&](const VectorXd& hh) {
-    at = hh;
     VectorXd g;
     const double v = reflected_pairs_log_likelihood(hh, X, flip, y, sign, &g);  // may throw
     value = v;
-    gradient = g;
-    ok = true;
+    gradient = std::move(g);
   };
   target.evaluate = [&](VectorXd& grad) {
     grad = gradient;
@@ -156,7 +155,6 @@ RpropSummary fit_reflected_pairs(VectorXd& h, const MatrixXd& X, const VectorXd&
   VectorXd best = h;
   target.keep = [&](const VectorXd& hh) { best = hh; };
   target.apply(h);  // the start (NumericalError when it cannot be factorised)
-  (void)ok;
   const RpropSummary s = detail::run_irprop(options, X2, h, nullptr, target);
   h = best;
   return s;

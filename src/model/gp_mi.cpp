@@ -82,8 +82,11 @@ int refit(gp::Gp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
         const int its = gp::fit_reflected_pairs(h, in.topRows(n), pairs.flip, t.head(n), sign,
                                                 rprop)
                             .iterations;
-        g.compute(in, t);
+        // One factorisation on the 2n rows, at the fitted h: drop the old data first, so
+        // that setting h does not refactorise it.
+        g.compute(MatrixXd(0, in.cols()), VectorXd(0));
         g.set_h_params(h);
+        g.compute(in, t);
         return its;
       } catch (const NumericalError&) {
         // The start does not factorise without the jitter the 2n GP adds (Gp::compute): points
