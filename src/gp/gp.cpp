@@ -177,7 +177,9 @@ Gp::Gp(const Gp& o)
       alpha_(o.alpha_),
       jitter_(o.jitter_),
       variance_points_(o.variance_points_),
-      Lv_(o.Lv_) {
+      Lv_(o.Lv_),
+      variance_pairs_(o.variance_pairs_),
+      Lw_(o.Lw_) {
   bind_kernel();
 }
 
@@ -312,10 +314,14 @@ void Gp::factorise(std::unique_ptr<Kernel> kernel_ptr, double log_sigma_n,
     throw NumericalError(os.str());
   }
 
-  MatrixXd Lv;
-  if (subset && variance_points_ > 0 && variance_points_ < n) {
+  MatrixXd Lv, Lw;
+  if (subset && variance_points_ > 0 && variance_points_ <= n &&
+      (variance_points_ < n || variance_pairs_ > 0)) {
     try {
-      Lv = subset_factor(Kf, sn2 + jitter, variance_points_);
+      if (variance_pairs_ > 0)
+        pair_factors(Kf, sn2 + jitter, variance_pairs_, Lv, Lw);
+      else
+        Lv = subset_factor(Kf, sn2 + jitter, variance_points_);
     } catch (...) {
       give(Kf, ws.kf);
       give(L, ws.l);
@@ -351,6 +357,7 @@ void Gp::factorise(std::unique_ptr<Kernel> kernel_ptr, double log_sigma_n,
   alpha_ = std::move(alpha);
   jitter_ = jitter;
   Lv_ = std::move(Lv);
+  Lw_ = std::move(Lw);
 }
 
 Eigen::MatrixXd Gp::subset_factor(const Eigen::MatrixXd& Kf, double diagonal, int m) {
@@ -377,16 +384,89 @@ void Gp::set_variance_points(int m) {
   }
   MatrixXd Lv = subset_factor(Kf_, noise_variance() + jitter_, m);  // throws with the GP unchanged
   variance_points_ = m;
+  variance_pairs_ = 0;
   Lv_ = std::move(Lv);
+  Lw_.resize(0, 0);
 }
 
-const Eigen::MatrixXd& Gp::variance_factor(Index* first) const {
-  if (Lv_.rows() > 0) {
-    *first = L_.rows() - Lv_.rows();
-    return Lv_;
+void Gp::pair_factors(const Eigen::MatrixXd& Kf, double diagonal, int h, Eigen::MatrixXd& Lv,
+                      Eigen::MatrixXd& Lw) {
+  const Index n = Kf.rows();
+  Lv.resize(0, 0);
+  Lw.resize(0, 0);
+  if (h <= 0 || 2 * static_cast<Index>(h) > n) return;
+  const Index f = n - 2 * static_cast<Index>(h);
+  // K of the last 2h points: [[A, B'], [B, A']]; mirror pairs make A' = A and B symmetric.
+  const auto A = Kf.block(f, f, h, h);
+  const auto A2 = Kf.block(f + h, f + h, h, h);
+  const auto B = Kf.block(f + h, f, h, h);
+  const double scale = std::max(Kf.diagonal().maxCoeff(), 0.0);
+  const double mismatch =
+      std::max((A2 - A).cwiseAbs().maxCoeff(), (B - B.transpose()).cwiseAbs().maxCoeff());
+  if (!(mismatch <= 1e-8 * scale)) {
+    std::ostringstream os;
+    os << "Gp::set_variance_pairs: the last " << 2 * h << " of " << n
+       << " points are not " << h << " points followed by their mirror images (their kernel "
+       << "matrix is not [[A, B], [B, A]]: entries differ by " << mismatch << ", sigma_f^2 = "
+       << scale << ")";
+    throw InvalidArgument(os.str());
   }
-  *first = 0;
-  return L_;
+  const MatrixXd Bs = 0.5 * (B + B.transpose());
+  auto factor = [&](MatrixXd& out, double sign, const char* which) {
+    out = A + sign * Bs;
+    out.diagonal().array() += diagonal;
+    Eigen::LLT<Eigen::Ref<MatrixXd>, Eigen::Lower> llt(out);
+    if (llt.info() != Eigen::Success || !out.diagonal().allFinite() ||
+        !(out.diagonal().array() > 0.0).all()) {
+      std::ostringstream os;
+      os << "Gp: Cholesky factorisation of the " << which << " block of the last " << 2 * h
+         << " of " << n
+         << " points' K + sigma_n^2 I (set_variance_pairs) failed although the whole K's succeeded";
+      throw NumericalError(os.str());
+    }
+    out.triangularView<Eigen::StrictlyUpper>() = out.transpose();
+  };
+  factor(Lv, 1.0, "A + B");
+  factor(Lw, -1.0, "A - B");
+}
+
+void Gp::set_variance_pairs(int h) {
+  if (h < 0) {
+    throw InvalidArgument("Gp::set_variance_pairs: expected h >= 0 (0: every point), got " +
+                          std::to_string(h));
+  }
+  MatrixXd Lv, Lw;
+  pair_factors(Kf_, noise_variance() + jitter_, h, Lv, Lw);  // throws with the GP unchanged
+  variance_points_ = 2 * h;
+  variance_pairs_ = h;
+  Lv_ = std::move(Lv);
+  Lw_ = std::move(Lw);
+}
+
+Index Gp::variance_first() const {
+  if (Lv_.rows() == 0) return 0;
+  return L_.rows() - (Lw_.rows() > 0 ? 2 * Lv_.rows() : Lv_.rows());
+}
+
+void Gp::variance_terms(Eigen::Ref<Eigen::MatrixXd> kv, Eigen::Ref<Eigen::VectorXd> ss) const {
+  if (Lw_.rows() > 0) {
+    const Index h = Lv_.rows();
+    constexpr double kHalfSqrt2 = 0.70710678118654752440;  // 1 / sqrt(2)
+    for (Index c = 0; c < kv.cols(); ++c) {
+      for (Index r = 0; r < h; ++r) {
+        const double k1 = kv(r, c), k2 = kv(h + r, c);
+        kv(r, c) = (k1 + k2) * kHalfSqrt2;
+        kv(h + r, c) = (k1 - k2) * kHalfSqrt2;
+      }
+    }
+    auto u = kv.topRows(h);
+    auto w = kv.bottomRows(h);
+    Lv_.triangularView<Eigen::Lower>().solveInPlace(u);
+    Lw_.triangularView<Eigen::Lower>().solveInPlace(w);
+  } else {
+    (Lv_.rows() > 0 ? Lv_ : L_).triangularView<Eigen::Lower>().solveInPlace(kv);
+  }
+  ss = kv.colwise().squaredNorm().transpose();
 }
 
 void Gp::set_targets(const Eigen::VectorXd& y) {
@@ -473,11 +553,12 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
   if (!se_) {
     VectorXd k = kernel_->gram((x.transpose() - X_mean_), X_.rowwise() - X_mean_).transpose();
     mean = k.dot(alpha_);
-    Index first = 0;
-    const MatrixXd& Lv = variance_factor(&first);
-    auto kv = k.tail(n - first);
-    Lv.triangularView<Eigen::Lower>().solveInPlace(kv);
-    variance = std::max(0.0, sf2 - kv.squaredNorm());
+    const Index first = variance_first();
+    double ss = 0.0;
+    Eigen::Map<MatrixXd> kv(k.data() + first, n - first, 1);
+    Eigen::Map<VectorXd> ssv(&ss, 1);
+    variance_terms(kv, ssv);
+    variance = std::max(0.0, sf2 - ss);
     return;
   }
   thread_local std::vector<double> buf;
@@ -490,11 +571,12 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
   k.noalias() = Xa_ * qa;  // -1/2 squared scaled distances
   k = k.array().min(0.0).exp() * sf2;
   mean = k.dot(alpha_);
-  Index first = 0;
-  const MatrixXd& Lv = variance_factor(&first);
-  auto kv = k.tail(n - first);
-  Lv.triangularView<Eigen::Lower>().solveInPlace(kv);
-  variance = std::max(0.0, sf2 - kv.squaredNorm());
+  const Index first = variance_first();
+  double ss = 0.0;
+  Eigen::Map<MatrixXd> kv(k.data() + first, n - first, 1);
+  Eigen::Map<VectorXd> ssv(&ss, 1);
+  variance_terms(kv, ssv);
+  variance = std::max(0.0, sf2 - ss);
 }
 
 void Gp::predict_batch(const Eigen::MatrixXd& Xq, Eigen::VectorXd& mean,
@@ -553,11 +635,11 @@ void Gp::predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
     } else {
       mean = KT.transpose() * alpha_;
     }
-    Index first = 0;
-    const MatrixXd& Lv = variance_factor(&first);
+    const Index first = variance_first();
+    VectorXd ss(B);
     auto KTv = KT.bottomRows(n - first);
-    Lv.triangularView<Eigen::Lower>().solveInPlace(KTv);
-    variance = (sf2 - KTv.colwise().squaredNorm().transpose().array()).max(0.0).matrix();
+    variance_terms(KTv, ss);
+    variance = (sf2 - ss.array()).max(0.0).matrix();
     return;
   }
   const Index Bp = (B + 7) / 8 * 8;  // queries padded to a multiple of 8 (padding rows are 0)
@@ -590,12 +672,12 @@ void Gp::predict_rows(const Eigen::MatrixXd& Xq, const Eigen::MatrixXd* weights,
     }
     args.alpha_lanes = lanes;
   }
-  Index first = 0;
-  const MatrixXd& Lv = variance_factor(&first);
-  if (first > 0) {
-    args.lv = Lv.data();
+  const Index first = variance_first();
+  if (Lv_.rows() > 0) {
+    args.lv = Lv_.data();
     args.var_first = first;
     args.nv = n - first;
+    if (Lw_.rows() > 0) args.lw = Lw_.data();
   }
   args.n = n;
   args.d2 = D + 2;
@@ -623,25 +705,31 @@ Eigen::MatrixXd Gp::inverse_covariance() const {
   return Kinv;
 }
 
-std::vector<int> greedy_variance_subset(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
-                                        int m, double tolerance) {
+namespace {
+
+// greedy_variance_subset (pairs = 0) and greedy_variance_pairs (pairs = n: row n + i is row i's
+// image; each step adds a recorded row and its image, and the result lists the recorded rows).
+std::vector<int> greedy_rows(const Eigen::MatrixXd& X, const std::vector<Gp>& gps, int m,
+                             double tolerance, Index pairs, const char* who) {
   const Index N = X.rows();
   std::vector<int> out;
-  if (m <= 0 || N <= m) {
-    for (Index i = 0; i < N; ++i) out.push_back(static_cast<int>(i));
+  const Index candidates = pairs > 0 ? pairs : N;
+  if (m <= 0 || candidates <= m) {
+    for (Index i = 0; i < candidates; ++i) out.push_back(static_cast<int>(i));
     return out;
   }
   if (!(tolerance >= 0.0))
-    throw InvalidArgument("greedy_variance_subset: tolerance must be >= 0, got " +
+    throw InvalidArgument(std::string(who) + ": tolerance must be >= 0, got " +
                           std::to_string(tolerance));
   const auto G = static_cast<Index>(gps.size());
   for (const Gp& g : gps)
     if (g.input_dim() != X.cols())
-      throw InvalidArgument("greedy_variance_subset: a GP has input dimension " +
+      throw InvalidArgument(std::string(who) + ": a GP has input dimension " +
                             std::to_string(g.input_dim()) + ", X has " + std::to_string(X.cols()));
-  // Per GP: the columns of the pivoted Cholesky factor so far (N x m) and every row's latent
+  // Per GP: the columns of the pivoted Cholesky factor so far (N x steps) and every row's latent
   // variance given the chosen rows' observations, k(x,x) - sum of the squared factor entries.
-  std::vector<MatrixXd> L(static_cast<std::size_t>(G), MatrixXd(N, m));
+  const Index steps = pairs > 0 ? 2 * static_cast<Index>(m) : m;
+  std::vector<MatrixXd> L(static_cast<std::size_t>(G), MatrixXd(N, steps));
   MatrixXd var(N, G);
   VectorXd scale(G), noise(G);
   for (Index g = 0; g < G; ++g) {
@@ -651,29 +739,54 @@ std::vector<int> greedy_variance_subset(const Eigen::MatrixXd& X, const std::vec
     scale[g] = sf2 > 0.0 ? 1.0 / sf2 : 0.0;
     noise[g] = gp.noise_variance();
   }
-  std::vector<char> chosen(static_cast<std::size_t>(N), 0);
+  std::vector<char> chosen(static_cast<std::size_t>(candidates), 0);
   VectorXd score(N), col(N);
-  for (int k = 0; k < m; ++k) {
-    score.noalias() = var * scale;
-    Index best = -1;
-    for (Index i = 0; i < N; ++i)
-      if (!chosen[static_cast<std::size_t>(i)] && (best < 0 || score[i] > score[best])) best = i;
-    if (best < 0 || !(score[best] > tolerance * static_cast<double>(G))) break;
+  Index k = 0;  // pivots so far
+  auto pivot = [&](Index row) {
     for (Index g = 0; g < G; ++g) {
       auto& Lg = L[static_cast<std::size_t>(g)];
-      col = gps[static_cast<std::size_t>(g)].kernel().gram(X, X.row(best));
-      if (k > 0) col.noalias() -= Lg.leftCols(k) * Lg.row(best).head(k).transpose();
-      col[best] = var(best, g);  // the same quantity, without the round-off of the difference
-      const double pivot = var(best, g) + noise[g];
-      Lg.col(k) = col / std::sqrt(pivot);
+      col = gps[static_cast<std::size_t>(g)].kernel().gram(X, X.row(row));
+      if (k > 0) col.noalias() -= Lg.leftCols(k) * Lg.row(row).head(k).transpose();
+      col[row] = var(row, g);  // the same quantity, without the round-off of the difference
+      const double p = var(row, g) + noise[g];
+      Lg.col(k) = col / std::sqrt(p);
       var.col(g) -= Lg.col(k).cwiseAbs2();
     }
     var = var.cwiseMax(0.0);
+    ++k;
+  };
+  const double per_row = pairs > 0 ? 2.0 : 1.0;
+  for (int step = 0; step < m; ++step) {
+    score.noalias() = var * scale;
+    Index best = -1;
+    for (Index i = 0; i < candidates; ++i) {
+      if (chosen[static_cast<std::size_t>(i)]) continue;
+      if (pairs > 0) score[i] += score[pairs + i];
+      if (best < 0 || score[i] > score[best]) best = i;
+    }
+    if (best < 0 || !(score[best] > per_row * tolerance * static_cast<double>(G))) break;
+    pivot(best);
+    if (pairs > 0) pivot(pairs + best);
     chosen[static_cast<std::size_t>(best)] = 1;
     out.push_back(static_cast<int>(best));
   }
   std::sort(out.begin(), out.end());
   return out;
+}
+
+}  // namespace
+
+std::vector<int> greedy_variance_subset(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
+                                        int m, double tolerance) {
+  return greedy_rows(X, gps, m, tolerance, 0, "greedy_variance_subset");
+}
+
+std::vector<int> greedy_variance_pairs(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
+                                       int h, double tolerance) {
+  if (X.rows() % 2 != 0)
+    throw InvalidArgument("greedy_variance_pairs: X must hold 2 n rows (n rows and their images), "
+                          "got " + std::to_string(X.rows()));
+  return greedy_rows(X, gps, h, tolerance, X.rows() / 2, "greedy_variance_pairs");
 }
 
 }  // namespace drops::gp

@@ -34,11 +34,17 @@ struct PredictArgs {
   const double* lv = nullptr;
   std::ptrdiff_t var_first = 0;
   std::ptrdiff_t nv = 0;
+  /// With lv: nullptr, or the subset in mirror pairs (Gp::set_variance_pairs, nv even): lv is
+  /// then the nv / 2 x nv / 2 factor of A + B and lw that of A - B (laid out as lt), and ss is
+  /// |Lv^-1 u|^2 + |Lw^-1 w|^2 with u, w = (k_1 +- k_2) / sqrt(2), k_1 and k_2 the two halves of
+  /// the subset's kernel entries.
+  const double* lw = nullptr;
 };
 
 /// For the first args.used queries: k* = sf2 exp(min(xa qa^T, 0)) (squared-exponential kernel
 /// with the query), mean = k*^T alpha (or k*^T the query's column of alpha_lanes), forward
-/// substitution L v = k* and ss = |v|^2 (with lv: Lv v = the last nv entries of k*).
+/// substitution L v = k* and ss = |v|^2 (with lv: Lv v = the last nv entries of k*; with lw as
+/// well, the two half-size substitutions of the mirror pairs).
 /// Queries are processed in packs of 8, 4 and 2 lanes (the rest after the packs of 8 padded to a
 /// pack of 8 where that costs no more registers); every lane performs the same operations in
 /// the same order in every pack width, so a query's results do not depend on the batch it came in

@@ -239,21 +239,30 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
   // Variances from a subset (ModelOptions::variance_points), chosen on the fitted kernels
   // (gp::greedy_variance_subset): its rows go last, in order, after the others in order, and the
   // GPs are refactorised on that order (the same kernels, the same posterior);
-  // gp::Gp::set_variance_points conditions on the last rows.
+  // gp::Gp::set_variance_points conditions on the last rows. With the reflected transitions the
+  // subset is chosen in mirror pairs (gp::greedy_variance_pairs: m / 2 recorded rows and their
+  // images, the images last), which halves a variance's cost (gp::Gp::set_variance_pairs).
   const int m = options_.variance_points;
   int variance_rows = m;
+  int variance_pairs = 0;
   if (m > 0 && d.size() > m) {
-    const std::vector<int> subset = gp::greedy_variance_subset(d.gp_in, gps_, m);
+    const bool paired = d.pairs.n > 0 && d.size() == 2 * d.pairs.n && m >= 2;
+    std::vector<int> subset;
+    if (paired) {
+      const std::vector<int> recorded = gp::greedy_variance_pairs(d.gp_in, gps_, m / 2);
+      variance_pairs = static_cast<int>(recorded.size());
+      subset = recorded;
+      for (const int i : recorded) subset.push_back(d.pairs.n + i);
+    } else {
+      subset = gp::greedy_variance_subset(d.gp_in, gps_, m);
+    }
     variance_rows = static_cast<int>(subset.size());
+    std::vector<char> in_subset(static_cast<std::size_t>(d.size()), 0);
+    for (const int i : subset) in_subset[static_cast<std::size_t>(i)] = 1;
     std::vector<int> order;
     order.reserve(static_cast<std::size_t>(d.size()));
-    std::size_t k = 0;
-    for (int n = 0; n < d.size(); ++n) {
-      if (k < subset.size() && subset[k] == n)
-        ++k;
-      else
-        order.push_back(n);
-    }
+    for (int n = 0; n < d.size(); ++n)
+      if (!in_subset[static_cast<std::size_t>(n)]) order.push_back(n);
     order.insert(order.end(), subset.begin(), subset.end());
     d = d.rows(order);
     MatrixXd t(d.size(), targets.cols());
@@ -261,7 +270,15 @@ ModelSummary GpDynamicsModel::learn(const std::vector<Transition>& data,
     for (std::size_t i = 0; i < gps_.size(); ++i)
       gps_[i].compute(d.gp_in, t.col(static_cast<Eigen::Index>(i)));
   }
-  for (auto& g : gps_) g.set_variance_points(variance_rows);
+  // Every row in pairs (m = 0 or 2 n <= m): the exact variances, by blocks.
+  if ((m == 0 || d.size() <= m) && d.pairs.n > 0 && d.size() == 2 * d.pairs.n)
+    variance_pairs = d.pairs.n;
+  for (auto& g : gps_) {
+    if (variance_pairs > 0)
+      g.set_variance_pairs(variance_pairs);
+    else
+      g.set_variance_points(variance_rows);
+  }
   clear_samples();
   posterior_ = s.phi_posterior;
   if (options_.gp_mi.rollout_phi == RolloutPhi::kPosterior) {  // kept for draw_phi_samples

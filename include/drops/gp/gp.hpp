@@ -159,8 +159,27 @@ class Gp {
   /// m < 0, NumericalError when the subset's factorisation fails (the GP is then unchanged). Not
   /// thread-safe (mutates the GP).
   void set_variance_points(int m);
-  /// The m of set_variance_points (0: every point).
+  /// The m of set_variance_points (0: every point); 2 h after set_variance_pairs(h).
   int variance_points() const { return variance_points_; }
+
+  /// set_variance_points(2 h) for a subset laid out as mirror pairs: the last 2 h training points
+  /// are h points followed by their mirror images in the same order, under a map M of the inputs
+  /// that leaves the kernel unchanged (k(Mx, Mx') = k(x, x'), e.g. a reflection that flips the
+  /// signs of some inputs of an SE-ARD kernel; model::ReflectedPairs). The subset's K + sigma_n^2 I
+  /// is then [[A, B], [B, A]] and the variance term k_m*^T K_mm^-1 k_m* is
+  /// u^T (A + B)^-1 u + w^T (A - B)^-1 w with u, w = (k_1 +- k_2) / sqrt(2) (k_1, k_2: the kernel
+  /// with the h points and with their images): two factorisations of h points, so a variance costs
+  /// half the O((2h)^2) of set_variance_points(2 h), whose results these equal to round-off.
+  /// With N = 2 h (every point in pairs) the exact variances are computed so, by blocks; for
+  /// N < 2 h they are the exact GP's (with L), as with set_variance_points. The setting survives
+  /// compute(), set_h_params() and optimize_h_params(), as set_variance_points' does, until
+  /// set_variance_points is called. Throws InvalidArgument when h < 0 or when the kernel matrix
+  /// of the last 2 h points is not of that block form (to 1e-8 sigma_f^2: the rows are not mirror
+  /// pairs), NumericalError when a block's factorisation fails; the GP is then unchanged. Not
+  /// thread-safe (mutates the GP).
+  void set_variance_pairs(int h);
+  /// The h of set_variance_pairs (0: the variance subset, if any, is not laid out in pairs).
+  int variance_pairs() const { return variance_pairs_; }
 
   /// Posterior mean k*^T alpha and variance k(x,x) - k*^T K^-1 k* (without noise, clamped at >= 0;
   /// from the last variance_points() training points when N exceeds it) at x (dim D;
@@ -234,6 +253,10 @@ class Gp {
   // jitter) when 0 < m < N and the last factorisation made it; otherwise 0 x 0 (variances then
   // use L_, exact: the state inside an Rprop search, between its iterations).
   Eigen::MatrixXd Lv_;
+  int variance_pairs_ = 0;  // h of set_variance_pairs (0: not paired)
+  // With variance_pairs_ > 0 and 2 h <= N: Lv_ is the h x h factor of A + B + (sigma_n^2 + jitter) I
+  // and Lw_ that of A - B + (sigma_n^2 + jitter) I, laid out as L_; otherwise 0 x 0.
+  Eigen::MatrixXd Lw_;
 
   // Factorises K for (kernel, log_sigma_n, X) with the jitter retries and, on success only, commits
   // kernel, noise, X (unless X aliases X_), X_mean_, Xa_, Kf_, L_, jitter_, y_ and alpha_, and
@@ -246,8 +269,16 @@ class Gp {
   // Lv_ for m points from Kf (N x N, noise-free) with `diagonal` (sigma_n^2 + jitter) added;
   // 0 x 0 unless 0 < m < N. Throws NumericalError when the factorisation fails.
   static Eigen::MatrixXd subset_factor(const Eigen::MatrixXd& Kf, double diagonal, int m);
-  // The factor and the first row of the points that variances use: (Lv_, N - m) or (L_, 0).
-  const Eigen::MatrixXd& variance_factor(Eigen::Index* first) const;
+  // (Lv_, Lw_) of set_variance_pairs from Kf (N x N, noise-free) with `diagonal` added; both
+  // 0 x 0 unless 0 < 2 h <= N. Throws InvalidArgument (not mirror pairs) or NumericalError.
+  static void pair_factors(const Eigen::MatrixXd& Kf, double diagonal, int h, Eigen::MatrixXd& Lv,
+                           Eigen::MatrixXd& Lw);
+  // The first row of the points that variances use: N - m with a subset, else 0.
+  Eigen::Index variance_first() const;
+  // kv (the kernel with those points, one query per column: N - variance_first() rows) is
+  // overwritten by the variance solve; returns the squared norms of its columns, the term
+  // k*^T K^-1 k* of each query's variance (with the subset's factor, or its pair factors, or L_).
+  void variance_terms(Eigen::Ref<Eigen::MatrixXd> kv, Eigen::Ref<Eigen::VectorXd> ss) const;
   // Points se_ at kernel_ when it is SE-ARD.
   void bind_kernel();
   // Both predict_batch overloads: weights and columns null (alpha for every query) or both set.
@@ -270,5 +301,17 @@ class Gp {
 /// when a GP's input dimension is not X's or tolerance < 0. Thread-safe (reads the GPs).
 std::vector<int> greedy_variance_subset(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
                                         int m, double tolerance = 1e-9);
+
+/// greedy_variance_subset for the subset of Gp::set_variance_pairs: X holds 2 n rows, row n + i
+/// the image of row i (i < n) under a map that leaves the GPs' kernels unchanged (the reflected
+/// transitions, model::ReflectedPairs). Each step chooses the row i < n whose latent variance plus
+/// its image's (given the rows chosen so far, in units of each GP's signal variance, summed over
+/// the GPs) is the largest (ties: the lowest row) and adds both. It stops at h pairs, or earlier
+/// when no pair's exceeds 2 x `tolerance` per GP on average. Returns the increasing indices
+/// i < n of the chosen pairs (the rows i and n + i); every i < n when h <= 0 or n <= h.
+/// O(G n h^2) time, O(G n h) memory. Throws InvalidArgument when X has an odd number of rows, a
+/// GP's input dimension is not X's, or tolerance < 0. Thread-safe (reads the GPs).
+std::vector<int> greedy_variance_pairs(const Eigen::MatrixXd& X, const std::vector<Gp>& gps,
+                                       int h, double tolerance = 1e-9);
 
 }  // namespace drops::gp
