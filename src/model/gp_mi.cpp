@@ -119,6 +119,73 @@ VectorXd fit_output_gps_impl(std::vector<G>& gps, const MatrixXd& in, const Matr
   return ll;
 }
 
+/// True when the 2n rows of t are reflected pairs (Dataset::pairs): row n + i is sign times row
+/// i, to 1e-9 of the targets' scale (refit()'s test).
+bool mirrored_targets(const MatrixXd& t, const ReflectedPairs& pairs) {
+  const Eigen::Index n = pairs.n;
+  if (n <= 0 || t.rows() != 2 * n) return false;
+  for (Eigen::Index e = 0; e < t.cols(); ++e) {
+    const double scale = 1.0 + t.col(e).cwiseAbs().maxCoeff();
+    if (!((t.col(e).tail(n) - pairs.sign[e] * t.col(e).head(n)).cwiseAbs().maxCoeff() <=
+          1e-9 * scale))
+      return false;
+  }
+  return true;
+}
+
+/// GP-MI's scores with the kernels fixed (alternating_search's phi step) on reflected pairs, by
+/// blocks: with targets [t; sign t] the 2n GP's log marginal likelihood is
+/// c - t^T C_s^-1 t (gp/reflected_pairs.hpp, C_s = A + sign B + sigma_n^2 I on the n recorded
+/// inputs), c independent of the targets. So a score needs the prior on the n recorded rows and
+/// one triangular solve of n per output, instead of 2n rows and two solves of 2n.
+struct PairScores {
+  Dataset recorded;                 // the n recorded rows
+  std::vector<MatrixXd> factors;    // per output, the lower Cholesky factor of C_s (n x n)
+  VectorXd constant;                // per output, c
+  VectorXd sign;                    // per output, the sign under the reflection
+  bool ok = false;
+};
+
+/// The block scores of the exact GPs fitted on the 2n rows of d to targets t (the round's
+/// residuals); ok is false, and the caller scores on the 2n rows, unless the data and t are
+/// reflected pairs and the blocks reproduce every GP's quadratic form t^T K^-1 t to 1e-8.
+PairScores pair_scores(const std::vector<gp::Gp>& gps, const Dataset& d, const MatrixXd& t) {
+  PairScores ps;
+  const Eigen::Index n = d.pairs.n;
+  if (!mirrored_targets(t, d.pairs) || d.gp_in.rows() != 2 * n) return ps;
+  std::vector<int> top(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) top[static_cast<std::size_t>(i)] = static_cast<int>(i);
+  const MatrixXd X1 = d.gp_in.topRows(n), X2 = d.gp_in.bottomRows(n);
+  const auto E = static_cast<Eigen::Index>(gps.size());
+  ps.factors.resize(gps.size());
+  ps.constant.resize(E);
+  ps.sign = d.pairs.sign;
+  for (Eigen::Index e = 0; e < E; ++e) {
+    const gp::Gp& g = gps[static_cast<std::size_t>(e)];
+    if (g.size() != 2 * n) return ps;
+    MatrixXd C = g.kernel().gram(X1, X1);
+    C += ps.sign[e] * g.kernel().gram(X1, X2);
+    C = 0.5 * (C + C.transpose()).eval();
+    C.diagonal().array() += g.noise_variance();
+    Eigen::LLT<MatrixXd> llt(C);
+    if (llt.info() != Eigen::Success) return ps;
+    MatrixXd L = llt.matrixL();
+    const double q2n = t.col(e).dot(g.alpha());
+    VectorXd v = t.col(e).head(n);
+    L.triangularView<Eigen::Lower>().solveInPlace(v);
+    const double q = 2.0 * v.squaredNorm();
+    if (!(std::abs(q - q2n) <= 1e-8 * (1.0 + std::abs(q2n)))) return ps;  // e.g. jitter
+    ps.constant[e] = g.log_marginal_likelihood() + 0.5 * q2n;
+    ps.factors[static_cast<std::size_t>(e)] = std::move(L);
+  }
+  ps.recorded = d.rows(top);
+  ps.ok = true;
+  return ps;
+}
+PairScores pair_scores(const std::vector<gp::SparseGp>&, const Dataset&, const MatrixXd&) {
+  return {};
+}
+
 /// The outer loop: Subplex over the tunable entries of phi (discrete ones exhaustively) from
 /// parameters.values, maximising S(phi) = score(full phi); candidates the prior rejects score
 /// -inf. Returns the search's summary, in full-phi terms.
@@ -254,25 +321,50 @@ GpMiSummary alternating_search(const MeanFunction& prior, const PriorParameters&
     if (!residuals(prior, d, s.phi, targets, &s.nonfinite_prior_outputs))
       break;  // keep phi; the caller's final fit reports the error
     fit_output_gps_impl(gps, d.gp_in, targets, inner, &s.rprop_iterations, d.pairs);
-    // (b) phi with the kernels fixed.
+    // (b) phi with the kernels fixed; on reflected pairs whose residuals stay mirrored, by
+    // blocks (PairScores: the same scores to round-off, the prior on the recorded rows only).
     PriorParameters p = parameters;
     p.values = s.phi;
     int evals = 0;
+    PairScores blocks = pair_scores(gps, d, targets);
     auto S = [&](const VectorXd& phi) {
       const int k = evals++;
       MatrixXd t;
-      if (!residuals(prior, d, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
       VectorXd ll(E);
-      for (Eigen::Index i = 0; i < E; ++i) {
-        auto& g = gps[static_cast<std::size_t>(i)];
-        g.set_targets(t.col(i));
-        ll[i] = g.log_marginal_likelihood();
+      if (blocks.ok) {
+        if (!residuals(prior, blocks.recorded, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
+        for (Eigen::Index i = 0; i < E; ++i) {
+          VectorXd v = t.col(i);
+          blocks.factors[static_cast<std::size_t>(i)].triangularView<Eigen::Lower>().solveInPlace(
+              v);
+          ll[i] = blocks.constant[i] - v.squaredNorm();
+        }
+      } else {
+        if (!residuals(prior, d, phi, t, &s.nonfinite_prior_outputs)) return -kInf;
+        for (Eigen::Index i = 0; i < E; ++i) {
+          auto& g = gps[static_cast<std::size_t>(i)];
+          g.set_targets(t.col(i));
+          ll[i] = g.log_marginal_likelihood();
+        }
       }
       const double sc = gp_mi_score(ll, options.score);
       if (progress && k % 50 == 0) progress("gp-mi", s.evaluations + k, sc);
       return sc;
     };
-    const auto r = search_phi(prior, p, options, S);
+    auto r = search_phi(prior, p, options, S);
+    if (blocks.ok && std::isfinite(r.best_value)) {
+      // The blocks assume the prior mirrors its outputs (M(R x, R u) = sign M(x, u)), checked at
+      // the round's start; a prior that does so only at some phi is caught at the phi found, and
+      // the step is searched again on every row.
+      MatrixXd t;
+      long unused = 0;
+      if (!residuals(prior, d, r.best_x, t, &unused) || !mirrored_targets(t, d.pairs)) {
+        s.evaluations += r.evaluations;
+        blocks.ok = false;
+        evals = 0;
+        r = search_phi(prior, p, options, S);
+      }
+    }
     s.evaluations += r.evaluations;
     s.rounds = round + 1;
     double move = 0;
