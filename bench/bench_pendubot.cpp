@@ -87,6 +87,8 @@ void BM_GpMiLearning(benchmark::State& state) {
     const auto summary = m->learn(s.data);
     state.counters["phi_evals"] = summary.phi_evaluations;
     state.counters["m2"] = summary.phi[1];
+    state.counters["rounds"] = summary.rounds;
+    state.counters["rprop_its"] = static_cast<double>(summary.rprop_iterations);
   }
 }
 BENCHMARK(BM_GpMiLearning)->Arg(50)->Arg(100)->Arg(250)->Arg(500)->UseRealTime()->Iterations(1)->Unit(benchmark::kSecond);
