@@ -696,6 +696,165 @@ TEST(Gp, GreedyVarianceSubsetMatchesANaiveGreedySearch) {
   EXPECT_THROW(drops::gp::greedy_variance_subset(X, gps, 4, -1.0), drops::InvalidArgument);
 }
 
+// Variances in mirror pairs (set_variance_pairs): the last 2h rows are h inputs and their
+// reflections (signs flipped on some inputs, which leaves SE-ARD and Matern kernels unchanged).
+// The oracle is set_variance_points(2 h), the dense subset: the same variances to round-off and
+// the same means bit for bit, through predict, predict_batch (SIMD kernel and Eigen paths,
+// batch sizes around the packs) and predict_batch with weights; with every row in pairs, the
+// exact GP's variances. The setting survives refactorisations; rows that are not mirror pairs and
+// h < 0 are refused with the GP unchanged.
+TEST(Gp, PairedVariancesAreThoseOfTheDenseSubsetOfTheSameRows) {
+  Rng rng(41);
+  const int N0 = 23, h = 11, D = 3;
+  const MatrixXd R = RandomMatrix(rng, N0, D, -2.0, 2.0);
+  const MatrixXd P = RandomMatrix(rng, h, D, -2.0, 2.0);
+  const VectorXd flip = (VectorXd(D) << -1.0, 1.0, -1.0).finished();
+  const MatrixXd Pm = P * flip.asDiagonal();
+  MatrixXd X(N0 + 2 * h, D);
+  X << R, P, Pm;
+  const int N = static_cast<int>(X.rows());
+  const VectorXd y = RandomVector(rng, N, -1.0, 1.0);
+  MatrixXd Xp(2 * h, D);  // every row in pairs
+  Xp << P, Pm;
+  const VectorXd yp = y.tail(2 * h);
+  Gp se(D);
+  se.set_h_params(RandomH(rng, D));
+  Gp matern(drops::gp::Matern52(1.3, 0.8, D));
+  for (Gp* base : {&se, &matern}) {
+    Gp exact = *base;
+    exact.compute(X, y);
+    Gp dense = exact;
+    dense.set_variance_points(2 * h);
+    Gp paired = exact;
+    paired.set_variance_pairs(h);
+    EXPECT_EQ(paired.variance_pairs(), h);
+    EXPECT_EQ(paired.variance_points(), 2 * h);
+    double worse = 0.0;
+    for (const int B : {1, 3, 8, 13}) {
+      const MatrixXd Q = RandomMatrix(rng, B, D, -2.5, 2.5);
+      VectorXd m_p, v_p, m_d, v_d, m_ex, v_ex, m_w, v_w;
+      paired.predict_batch(Q, m_p, v_p);
+      dense.predict_batch(Q, m_d, v_d);
+      exact.predict_batch(Q, m_ex, v_ex);
+      MatrixXd weights(N, 1);
+      weights.col(0) = paired.alpha();
+      paired.predict_batch(Q, weights, std::vector<int>(static_cast<std::size_t>(B), 0), m_w,
+                           v_w);
+      for (int q = 0; q < B; ++q) {
+        EXPECT_EQ(m_p[q], m_d[q]) << "B " << B << " query " << q;
+        EXPECT_NEAR(v_p[q], v_d[q], 1e-10) << "B " << B << " query " << q;
+        EXPECT_EQ(v_w[q], v_p[q]);
+        double pm = 0, pv = 0;
+        paired.predict(Q.row(q).transpose(), pm, pv);
+        EXPECT_NEAR(pm, m_d[q], 1e-12);
+        EXPECT_NEAR(pv, v_d[q], 1e-10);
+        worse = std::max(worse, v_p[q] - v_ex[q]);
+      }
+    }
+    EXPECT_GT(worse, 1e-3);  // a subset: some variance must grow
+    // Refactorisations keep the pairs.
+    Gp refit = paired;
+    refit.optimize_h_params(drops::gp::RpropOptions{.max_iterations = 20});
+    EXPECT_EQ(refit.variance_pairs(), h);
+    Gp refit_dense = dense;
+    refit_dense.set_h_params(refit.h_params());
+    const MatrixXd Q = RandomMatrix(rng, 9, D, -2.0, 2.0);
+    VectorXd m1, v1, m2, v2;
+    refit.predict_batch(Q, m1, v1);
+    refit_dense.predict_batch(Q, m2, v2);
+    EXPECT_LT((v1 - v2).cwiseAbs().maxCoeff(), 1e-10);
+    // Every row in pairs: the exact variances, by blocks.
+    Gp all = *base;
+    all.compute(Xp, yp);
+    Gp all_pairs = all;
+    all_pairs.set_variance_pairs(h);
+    VectorXd m3, v3, m4, v4;
+    all_pairs.predict_batch(Q, m3, v3);
+    all.predict_batch(Q, m4, v4);
+    EXPECT_EQ(m3, m4);
+    EXPECT_LT((v3 - v4).cwiseAbs().maxCoeff(), 1e-10);
+    // set_variance_points ends the pairs.
+    paired.set_variance_points(0);
+    EXPECT_EQ(paired.variance_pairs(), 0);
+    VectorXd m5, v5, m6, v6;
+    paired.predict_batch(Q, m5, v5);
+    exact.predict_batch(Q, m6, v6);
+    EXPECT_EQ(v5, v6);
+  }
+  // Refused: h < 0, and rows that are not mirror pairs (the last 2h of the random rows R).
+  Gp g = se;
+  g.compute(R, y.head(N0));
+  VectorXd m7, v7, m8, v8;
+  const MatrixXd Q = RandomMatrix(rng, 5, D, -2.0, 2.0);
+  g.predict_batch(Q, m7, v7);
+  EXPECT_THROW(g.set_variance_pairs(-1), drops::InvalidArgument);
+  try {
+    g.set_variance_pairs(5);
+    ADD_FAILURE() << "rows that are not mirror pairs were accepted";
+  } catch (const drops::InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("mirror images"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(g.variance_pairs(), 0);
+  EXPECT_EQ(g.variance_points(), 0);
+  g.predict_batch(Q, m8, v8);
+  EXPECT_EQ(v7, v8);
+}
+
+// greedy_variance_pairs against a naive greedy search over pairs: at each step every remaining
+// pair's latent variances (the row's and its image's) given the pairs chosen so far are
+// recomputed from scratch (a dense solve per GP), in units of the GP's signal variance and
+// summed; the largest is chosen.
+TEST(Gp, GreedyVariancePairsMatchesANaiveGreedySearch) {
+  Rng rng(37);
+  const int n = 18, D = 3, h = 6;
+  const MatrixXd P = RandomMatrix(rng, n, D, -2, 2);
+  const VectorXd flip = (VectorXd(D) << 1.0, -1.0, -1.0).finished();
+  MatrixXd X(2 * n, D);
+  X << P, P * flip.asDiagonal();
+  std::vector<Gp> gps(2, Gp(D));
+  std::vector<VectorXd> hs;
+  for (auto& g : gps) {
+    hs.push_back(RandomH(rng, D));
+    g.set_h_params(hs.back());
+  }
+  const auto latent = [&](const std::vector<int>& rows, int j, const VectorXd& hp) {
+    const double sf2 = std::exp(2.0 * hp[D]);
+    if (rows.empty()) return sf2;
+    MatrixXd S(static_cast<int>(rows.size()), D);
+    for (std::size_t c = 0; c < rows.size(); ++c) S.row(static_cast<int>(c)) = X.row(rows[c]);
+    VectorXd kj(S.rows());
+    for (int c = 0; c < S.rows(); ++c)
+      kj[c] = NaiveKernel(S.row(c).transpose(), X.row(j).transpose(), hp);
+    return sf2 - kj.dot(NaiveK(S, hp, true).llt().solve(kj));
+  };
+  std::vector<int> chosen, rows;
+  for (int k = 0; k < h; ++k) {
+    int best = -1;
+    double best_score = -1.0;
+    for (int j = 0; j < n; ++j) {
+      if (std::find(chosen.begin(), chosen.end(), j) != chosen.end()) continue;
+      double score = 0.0;
+      for (const VectorXd& hp : hs)
+        score += (latent(rows, j, hp) + latent(rows, n + j, hp)) / std::exp(2.0 * hp[D]);
+      if (score > best_score) best_score = score, best = j;
+    }
+    chosen.push_back(best);
+    rows.push_back(best);
+    rows.push_back(n + best);
+  }
+  std::sort(chosen.begin(), chosen.end());
+  EXPECT_EQ(drops::gp::greedy_variance_pairs(X, gps, h), chosen);
+  std::vector<int> all(n);
+  for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+  EXPECT_EQ(drops::gp::greedy_variance_pairs(X, gps, n), all);
+  EXPECT_EQ(drops::gp::greedy_variance_pairs(X, gps, 0), all);
+  EXPECT_THROW(drops::gp::greedy_variance_pairs(X.topRows(2 * n - 1), gps, 3),
+               drops::InvalidArgument);
+  EXPECT_THROW(drops::gp::greedy_variance_pairs(MatrixXd::Zero(12, 2), gps, 3),
+               drops::InvalidArgument);
+  EXPECT_THROW(drops::gp::greedy_variance_pairs(X, gps, 3, -1.0), drops::InvalidArgument);
+}
+
 // 7. N = 0 predicts the prior.
 TEST(Gp, EmptyGpPredictsPrior) {
   Gp gp(3);
