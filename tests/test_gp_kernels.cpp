@@ -183,6 +183,84 @@ TEST(GpKernels, ForwardSubstitutionIsTheDocumentedLoopBitForBitInEveryVariant) {
   }
 }
 
+// The variance subset in mirror pairs (PredictArgs::lw): the last 2h training points are h
+// points and their reflections (signs flipped on some inputs), so the subset's K is
+// [[A, B], [B, A]] and the factors of A + B and A - B must give the ss of the dense subset
+// factor, to round-off, in every variant; and, as everywhere, the same bits whatever the split.
+TEST(GpKernels, MirrorPairSubsetGivesTheDenseSubsetsVariancesInEveryVariant) {
+  Rng rng(17);
+  const int r = 13, h = 9, n = r + 2 * h, D = 4, d2 = D + 2, queries = 19, bp = 24;
+  MatrixXd X(n, D), Q(queries, D);
+  for (int i = 0; i < r + h; ++i)
+    for (int d = 0; d < D; ++d) X(i, d) = rng.uniform(-1.0, 1.0);
+  for (int i = 0; i < h; ++i)
+    for (int d = 0; d < D; ++d) X(r + h + i, d) = (d % 2 == 0 ? -1.0 : 1.0) * X(r + i, d);
+  for (int i = 0; i < queries; ++i)
+    for (int d = 0; d < D; ++d) Q(i, d) = rng.uniform(-1.5, 1.5);
+  MatrixXd xa(n, d2), qa = MatrixXd::Zero(bp, d2);
+  xa << X, -0.5 * X.rowwise().squaredNorm(), VectorXd::Ones(n);
+  qa.topRows(queries) << Q, VectorXd::Ones(queries), -0.5 * Q.rowwise().squaredNorm();
+  MatrixXd K(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) K(i, j) = std::exp(-0.5 * (X.row(i) - X.row(j)).squaredNorm());
+  K.diagonal().array() += 0.01;
+  auto laid_out = [](const MatrixXd& M) {  // lower Cholesky factor, rows contiguous (as lt)
+    MatrixXd L = M.llt().matrixL();
+    L.triangularView<Eigen::StrictlyUpper>() = L.transpose();
+    return L;
+  };
+  const MatrixXd lt = laid_out(K), lv = laid_out(K.bottomRightCorner(2 * h, 2 * h));
+  const MatrixXd A = K.block(r, r, h, h), B = K.block(r + h, r, h, h);
+  const MatrixXd lp = laid_out(A + B), lm = laid_out(A - B);
+  VectorXd alpha(n);
+  for (int i = 0; i < n; ++i) alpha[i] = rng.uniform(-1.0, 1.0);
+  auto run = [&](Isa isa, bool paired, int first, int count, std::vector<double>& mean,
+                 std::vector<double>& ss) {
+    MatrixXd q = MatrixXd::Zero(bp, d2);
+    q.topRows(count) = qa.middleRows(first, count);
+    std::vector<double> v(static_cast<std::size_t>(n * bp));
+    mean.assign(static_cast<std::size_t>(count), 0.0);
+    ss.assign(static_cast<std::size_t>(count), 0.0);
+    drops::gp::kernels::PredictArgs a;
+    a.xa = xa.data();
+    a.lt = lt.data();
+    a.alpha = alpha.data();
+    a.n = n;
+    a.d2 = d2;
+    a.qa = q.data();
+    a.used = count;
+    a.bp = bp;
+    a.sf2 = 1.0;
+    a.v = v.data();
+    a.mean = mean.data();
+    a.ss = ss.data();
+    a.lv = paired ? lp.data() : lv.data();
+    a.lw = paired ? lm.data() : nullptr;
+    a.var_first = r;
+    a.nv = 2 * h;
+    drops::gp::kernels::predict_block(isa, a);
+  };
+  for (const Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kGeneric}) {
+    if (!drops::gp::kernels::supported(isa)) continue;
+    SCOPED_TRACE(drops::gp::kernels::isa_name(isa));
+    std::vector<double> dm, ds, pm, ps, m, s;
+    run(isa, false, 0, queries, dm, ds);
+    run(isa, true, 0, queries, pm, ps);
+    double smallest = 1.0;
+    for (int q = 0; q < queries; ++q) {
+      EXPECT_EQ(pm[q], dm[q]) << "q=" << q;
+      EXPECT_NEAR(ps[q], ds[q], 1e-12) << "q=" << q;
+      smallest = std::min(smallest, 1.0 - ds[q]);
+    }
+    EXPECT_GT(smallest, -1e-12);
+    for (int first = 0; first < queries; first += 3)
+      for (int count = 1; first + count <= queries; count += 2) {
+        run(isa, true, first, count, m, s);
+        for (int q = 0; q < count; ++q) ASSERT_EQ(s[q], ps[first + q]) << first << " " << count;
+      }
+  }
+}
+
 // pair_weights (PILCO's block-pair second moments) against a plain loop with std::exp, for every
 // supported variant: odd sizes that use packs of 8, 4, 2 and a lone row, with and without K^-1,
 // log Q from -800 (underflow to 0) through 0 to 720 (overflow to +inf).
