@@ -1149,7 +1149,7 @@ TEST(Models, ReflectedTransitionsMakeThePredictionsEquivariant) {
 // solve of N per output). The oracle: the same search on the same 2N rows without the pairs
 // declared (every score on all 2N rows, the kernels fitted on 2N). The kernel fits agree to
 // ~1e-4 (test_reflected_pairs), so phi and the score need not agree to round-off.
-TEST(Models, GpMiScoresByBlocksFindThePhiOfTheScoresOnAllRows) {
+TEST(Models, GpMiScoresAndPosteriorByBlocksAreThoseOnAllRows) {
   const auto data = actual_data(2);
   auto task = std::make_shared<pendubot::SwingUpTask>();
   pendubot::PendubotPrior prior;
@@ -1194,6 +1194,18 @@ TEST(Models, GpMiScoresByBlocksFindThePhiOfTheScoresOnAllRows) {
   // (measured: the same phi, the scores 1e-9 apart; with residuals left at every phi, a wrong
   // factor on the quadratic term moves the score by ~2%)
   EXPECT_NEAR(blocks.score, all.score, 1e-6 * std::abs(all.score));
+  // phi's posterior at the phi found, with the kernels marginalised: its gradients by blocks on
+  // the pairs, against the same GPs on all 2N rows. The finite differences of gradients amplify
+  // round-off (K is ill-conditioned near the noise floor): measured 2e-4 of the largest entry.
+  auto at = p;
+  at.values = blocks.phi;
+  const auto post_blocks = model::phi_posterior(prior, at, paired, g_blocks);
+  const auto post_all = model::phi_posterior(prior, at, d, g_blocks);
+  ASSERT_GT(post_all.covariance.rows(), 0);
+  ASSERT_TRUE(post_all.covariance.allFinite());
+  const double cov_scale = post_all.covariance.cwiseAbs().maxCoeff();
+  EXPECT_LT((post_blocks.covariance - post_all.covariance).cwiseAbs().maxCoeff(), 1e-3 * cov_scale)
+      << post_blocks.covariance << "\n" << post_all.covariance;
 }
 
 TEST(Models, ReflectedTransitionsNeedATaskThatDeclaresAReflection) {

@@ -187,7 +187,10 @@ struct PhiPosterior {
 /// covariance NaN. Cost: 2K^2 + 1 evaluations of the prior on the data and E O(N^2) solves each;
 /// marginalised, also per output GP with F hyper-parameters off the box 2K + 2F gradients
 /// (O(N^3) each) and 2F factorisations, the outputs in parallel (about the final kernel fit's time
-/// for the dynamics GPs of a 4-state system at N = 500). Thread-safe (reads only).
+/// for the dynamics GPs of a 4-state system at N = 500). On reflected pairs (data.pairs set,
+/// SE-ARD kernels, every stencil's residuals mirrored) the gradients are computed by blocks
+/// (gp::reflected_pairs_log_likelihood: the same to round-off, a quarter of the cubic cost).
+/// Thread-safe (reads only).
 PhiPosterior phi_posterior(const MeanFunction& prior, const PriorParameters& parameters,
                            const Dataset& data, const std::vector<gp::Gp>& gps,
                            PhiPosteriorKernels kernels = PhiPosteriorKernels::kMarginalised);
