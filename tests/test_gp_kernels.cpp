@@ -18,6 +18,28 @@ using drops::gp::kernels::Isa;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
+// PredictArgs for `count` queries (qa: bp rows, padded) on n training points, every variance
+// from every point (lt); v, mean and ss sized by the caller.
+drops::gp::kernels::PredictArgs Args(const MatrixXd& xa, const MatrixXd& lt, const VectorXd& alpha,
+                                     const MatrixXd& qa, int count, int bp, double sf2,
+                                     std::vector<double>& v, std::vector<double>& mean,
+                                     std::vector<double>& ss) {
+  drops::gp::kernels::PredictArgs a;
+  a.xa = xa.data();
+  a.lt = lt.data();
+  a.alpha = alpha.data();
+  a.n = xa.rows();
+  a.d2 = xa.cols();
+  a.qa = qa.data();
+  a.used = count;
+  a.bp = bp;
+  a.sf2 = sf2;
+  a.v = v.data();
+  a.mean = mean.data();
+  a.ss = ss.data();
+  return a;
+}
+
 // A positive definite problem in the layout predict_block expects (see PredictArgs).
 struct Problem {
   int n = 60, d2 = 6, queries = 20;
@@ -53,20 +75,7 @@ struct Problem {
     std::vector<double> v(static_cast<std::size_t>(n * bp));
     mean.assign(static_cast<std::size_t>(count), 0.0);
     ss.assign(static_cast<std::size_t>(count), 0.0);
-    drops::gp::kernels::PredictArgs a;
-    a.xa = xa.data();
-    a.lt = lt.data();
-    a.alpha = alpha.data();
-    a.n = n;
-    a.d2 = d2;
-    a.qa = q.data();
-    a.used = count;
-    a.bp = bp;
-    a.sf2 = 1.3;
-    a.v = v.data();
-    a.mean = mean.data();
-    a.ss = ss.data();
-    drops::gp::kernels::predict_block(isa, a);
+    drops::gp::kernels::predict_block(isa, Args(xa, lt, alpha, q, count, bp, 1.3, v, mean, ss));
   }
 };
 
@@ -221,19 +230,7 @@ TEST(GpKernels, MirrorPairSubsetGivesTheDenseSubsetsVariancesInEveryVariant) {
     std::vector<double> v(static_cast<std::size_t>(n * bp));
     mean.assign(static_cast<std::size_t>(count), 0.0);
     ss.assign(static_cast<std::size_t>(count), 0.0);
-    drops::gp::kernels::PredictArgs a;
-    a.xa = xa.data();
-    a.lt = lt.data();
-    a.alpha = alpha.data();
-    a.n = n;
-    a.d2 = d2;
-    a.qa = q.data();
-    a.used = count;
-    a.bp = bp;
-    a.sf2 = 1.0;
-    a.v = v.data();
-    a.mean = mean.data();
-    a.ss = ss.data();
+    drops::gp::kernels::PredictArgs a = Args(xa, lt, alpha, q, count, bp, 1.0, v, mean, ss);
     a.lv = paired ? lp.data() : lv.data();
     a.lw = paired ? lm.data() : nullptr;
     a.var_first = r;

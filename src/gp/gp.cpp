@@ -550,30 +550,28 @@ void Gp::predict(const Eigen::VectorXd& x, double& mean, double& variance) const
     variance = sf2;
     return;
   }
+  VectorXd k_other;  // the kernel with x for a kernel other than SE-ARD
+  double* kp = nullptr;
   if (!se_) {
-    VectorXd k = kernel_->gram((x.transpose() - X_mean_), X_.rowwise() - X_mean_).transpose();
+    k_other = kernel_->gram((x.transpose() - X_mean_), X_.rowwise() - X_mean_).transpose();
+    mean = k_other.dot(alpha_);
+    kp = k_other.data();
+  } else {
+    thread_local std::vector<double> buf;
+    double* p = scratch(buf, static_cast<std::size_t>(n + D + 2));
+    Eigen::Map<VectorXd> qa(p, D + 2);  // [q, 1, -|q|^2 / 2]
+    Eigen::Map<VectorXd> k(p + D + 2, n);
+    qa.head(D) = (x - X_mean_.transpose()).cwiseQuotient(se_->length_scales);
+    qa[D] = 1.0;
+    qa[D + 1] = -0.5 * qa.head(D).squaredNorm();
+    k.noalias() = Xa_ * qa;  // -1/2 squared scaled distances
+    k = k.array().min(0.0).exp() * sf2;
     mean = k.dot(alpha_);
-    const Index first = variance_first();
-    double ss = 0.0;
-    Eigen::Map<MatrixXd> kv(k.data() + first, n - first, 1);
-    Eigen::Map<VectorXd> ssv(&ss, 1);
-    variance_terms(kv, ssv);
-    variance = std::max(0.0, sf2 - ss);
-    return;
+    kp = k.data();
   }
-  thread_local std::vector<double> buf;
-  double* p = scratch(buf, static_cast<std::size_t>(n + D + 2));
-  Eigen::Map<VectorXd> qa(p, D + 2);  // [q, 1, -|q|^2 / 2]
-  Eigen::Map<VectorXd> k(p + D + 2, n);
-  qa.head(D) = (x - X_mean_.transpose()).cwiseQuotient(se_->length_scales);
-  qa[D] = 1.0;
-  qa[D + 1] = -0.5 * qa.head(D).squaredNorm();
-  k.noalias() = Xa_ * qa;  // -1/2 squared scaled distances
-  k = k.array().min(0.0).exp() * sf2;
-  mean = k.dot(alpha_);
   const Index first = variance_first();
   double ss = 0.0;
-  Eigen::Map<MatrixXd> kv(k.data() + first, n - first, 1);
+  Eigen::Map<MatrixXd> kv(kp + first, n - first, 1);
   Eigen::Map<VectorXd> ssv(&ss, 1);
   variance_terms(kv, ssv);
   variance = std::max(0.0, sf2 - ss);
