@@ -552,6 +552,38 @@ TEST(Gp, PredictionsWithAQuerysOwnWeightsAreThoseOfTheGpOfItsTargets) {
   }
 }
 
+// A GP with subset variances (got) at query batches of 1, 3, 8 and 13 random rows, through
+// predict_batch, predict_batch with its own alpha as weights and predict: the means are the
+// exact GP's (bit for bit in batches), the variances the oracle's to 1e-10 and never below the
+// exact ones. Returns the largest growth of a variance over the exact one.
+double ExpectSubsetPredictions(const Gp& got, const Gp& oracle, const Gp& exact, Rng& rng) {
+  const int D = got.input_dim();
+  const int N = got.size();
+  double worse = 0.0;
+  for (const int B : {1, 3, 8, 13}) {
+    const MatrixXd Q = RandomMatrix(rng, B, D, -2.5, 2.5);
+    VectorXd m, v, m_ex, v_ex, m_or, v_or, m_w, v_w;
+    got.predict_batch(Q, m, v);
+    exact.predict_batch(Q, m_ex, v_ex);
+    oracle.predict_batch(Q, m_or, v_or);
+    MatrixXd weights(N, 1);
+    weights.col(0) = got.alpha();
+    got.predict_batch(Q, weights, std::vector<int>(static_cast<std::size_t>(B), 0), m_w, v_w);
+    for (int q = 0; q < B; ++q) {
+      EXPECT_EQ(m[q], m_ex[q]) << "B " << B << " query " << q;  // means: every point
+      EXPECT_NEAR(v[q], v_or[q], 1e-10) << "B " << B << " query " << q;
+      EXPECT_GE(v[q], v_ex[q] - 1e-12) << "B " << B << " query " << q;
+      EXPECT_EQ(v_w[q], v[q]);
+      double pm = 0, pv = 0;
+      got.predict(Q.row(q).transpose(), pm, pv);
+      EXPECT_NEAR(pm, m_ex[q], 1e-12);
+      EXPECT_NEAR(pv, v_or[q], 1e-10);
+      worse = std::max(worse, v[q] - v_ex[q]);
+    }
+  }
+  return worse;
+}
+
 // Subset-of-data variances (set_variance_points): the oracle is a GP with the same
 // hyper-parameters on the last m points alone. Its variances are the subset GP's, the full GP's
 // means are kept, no variance falls below the exact one, and with N <= m nothing changes (bits).
@@ -573,29 +605,8 @@ TEST(Gp, SubsetVariancesAreThoseOfTheGpOfTheLastMPointsAndMeansStayExact) {
     EXPECT_EQ(sub.variance_points(), m);
     Gp last = *base;  // the oracle: the last m points alone
     last.compute(X.bottomRows(m), y.tail(m));
-    double worse = 0.0;
-    for (const int B : {1, 3, 8, 13}) {
-      const MatrixXd Q = RandomMatrix(rng, B, D, -2.5, 2.5);
-      VectorXd m_sub, v_sub, m_ex, v_ex, m_last, v_last, m_w, v_w;
-      sub.predict_batch(Q, m_sub, v_sub);
-      exact.predict_batch(Q, m_ex, v_ex);
-      last.predict_batch(Q, m_last, v_last);
-      MatrixXd weights(N, 1);
-      weights.col(0) = sub.alpha();
-      sub.predict_batch(Q, weights, std::vector<int>(static_cast<std::size_t>(B), 0), m_w, v_w);
-      for (int q = 0; q < B; ++q) {
-        EXPECT_EQ(m_sub[q], m_ex[q]) << "B " << B << " query " << q;  // means: every point
-        EXPECT_NEAR(v_sub[q], v_last[q], 1e-10) << "B " << B << " query " << q;
-        EXPECT_GE(v_sub[q], v_ex[q] - 1e-12) << "B " << B << " query " << q;
-        EXPECT_EQ(v_w[q], v_sub[q]);
-        double pm = 0, pv = 0;
-        sub.predict(Q.row(q).transpose(), pm, pv);
-        EXPECT_NEAR(pm, m_ex[q], 1e-12);
-        EXPECT_NEAR(pv, v_last[q], 1e-10);
-        worse = std::max(worse, v_sub[q] - v_ex[q]);
-      }
-    }
-    EXPECT_GT(worse, 1e-3);  // the subset is not the whole: some variance must grow
+    // the subset is not the whole: some variance must grow
+    EXPECT_GT(ExpectSubsetPredictions(sub, last, exact, rng), 1e-3);
     // Refactorisations keep the subset: set_h_params, optimize_h_params, compute.
     Gp refit = sub;
     refit.optimize_h_params(drops::gp::RpropOptions{.max_iterations = 20});
@@ -729,29 +740,7 @@ TEST(Gp, PairedVariancesAreThoseOfTheDenseSubsetOfTheSameRows) {
     paired.set_variance_pairs(h);
     EXPECT_EQ(paired.variance_pairs(), h);
     EXPECT_EQ(paired.variance_points(), 2 * h);
-    double worse = 0.0;
-    for (const int B : {1, 3, 8, 13}) {
-      const MatrixXd Q = RandomMatrix(rng, B, D, -2.5, 2.5);
-      VectorXd m_p, v_p, m_d, v_d, m_ex, v_ex, m_w, v_w;
-      paired.predict_batch(Q, m_p, v_p);
-      dense.predict_batch(Q, m_d, v_d);
-      exact.predict_batch(Q, m_ex, v_ex);
-      MatrixXd weights(N, 1);
-      weights.col(0) = paired.alpha();
-      paired.predict_batch(Q, weights, std::vector<int>(static_cast<std::size_t>(B), 0), m_w,
-                           v_w);
-      for (int q = 0; q < B; ++q) {
-        EXPECT_EQ(m_p[q], m_d[q]) << "B " << B << " query " << q;
-        EXPECT_NEAR(v_p[q], v_d[q], 1e-10) << "B " << B << " query " << q;
-        EXPECT_EQ(v_w[q], v_p[q]);
-        double pm = 0, pv = 0;
-        paired.predict(Q.row(q).transpose(), pm, pv);
-        EXPECT_NEAR(pm, m_d[q], 1e-12);
-        EXPECT_NEAR(pv, v_d[q], 1e-10);
-        worse = std::max(worse, v_p[q] - v_ex[q]);
-      }
-    }
-    EXPECT_GT(worse, 1e-3);  // a subset: some variance must grow
+    EXPECT_GT(ExpectSubsetPredictions(paired, dense, exact, rng), 1e-3);  // a subset
     // Refactorisations keep the pairs.
     Gp refit = paired;
     refit.optimize_h_params(drops::gp::RpropOptions{.max_iterations = 20});
