@@ -67,6 +67,14 @@ int refit(gp::SparseGp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>&
   return its;
 }
 
+/// True when the 2n entries of t are a reflected pair's targets: entry n + i is sign times entry
+/// i, to 1e-9 of the targets' scale (round-off of the prior on mirrored states).
+bool mirrored(const Eigen::Ref<const VectorXd>& t, Eigen::Index n, double sign) {
+  if (n <= 0 || t.size() != 2 * n) return false;
+  const double scale = 1.0 + t.cwiseAbs().maxCoeff();
+  return (t.tail(n) - sign * t.head(n)).cwiseAbs().maxCoeff() <= 1e-9 * scale;
+}
+
 /// An exact GP on data laid out as reflected pairs (Dataset::pairs) whose targets follow the
 /// layout (row n + i = sign times row i, to round-off): the kernel fit on the n recorded rows
 /// (gp::fit_reflected_pairs, the 2n fit's search), then the GP computed on all rows. Other
@@ -76,8 +84,7 @@ int refit(gp::Gp& g, const MatrixXd& in, const Eigen::Ref<const VectorXd>& t,
   const Eigen::Index n = pairs.n;
   if (n > 0 && in.rows() == 2 * n && !rprop.penalty) {
     const double sign = pairs.sign[output];
-    const double scale = 1.0 + t.cwiseAbs().maxCoeff();
-    if ((t.tail(n) - sign * t.head(n)).cwiseAbs().maxCoeff() <= 1e-9 * scale) {
+    if (mirrored(t, n, sign)) {
       VectorXd h = g.h_params();
       try {
         const int its = gp::fit_reflected_pairs(h, in.topRows(n), pairs.flip, t.head(n), sign,
@@ -120,17 +127,11 @@ VectorXd fit_output_gps_impl(std::vector<G>& gps, const MatrixXd& in, const Matr
   return ll;
 }
 
-/// True when the 2n rows of t are reflected pairs (Dataset::pairs): row n + i is sign times row
-/// i, to 1e-9 of the targets' scale (refit()'s test).
+/// True when every column of t (2n rows, one per output) is mirrored() under the pairs' sign.
 bool mirrored_targets(const MatrixXd& t, const ReflectedPairs& pairs) {
-  const Eigen::Index n = pairs.n;
-  if (n <= 0 || t.rows() != 2 * n) return false;
-  for (Eigen::Index e = 0; e < t.cols(); ++e) {
-    const double scale = 1.0 + t.col(e).cwiseAbs().maxCoeff();
-    if (!((t.col(e).tail(n) - pairs.sign[e] * t.col(e).head(n)).cwiseAbs().maxCoeff() <=
-          1e-9 * scale))
-      return false;
-  }
+  if (pairs.n <= 0 || pairs.sign.size() != t.cols()) return false;
+  for (Eigen::Index e = 0; e < t.cols(); ++e)
+    if (!mirrored(t.col(e), pairs.n, pairs.sign[e])) return false;
   return true;
 }
 
@@ -143,7 +144,6 @@ struct PairScores {
   Dataset recorded;                 // the n recorded rows
   std::vector<MatrixXd> factors;    // per output, the lower Cholesky factor of C_s (n x n)
   VectorXd constant;                // per output, c
-  VectorXd sign;                    // per output, the sign under the reflection
   bool ok = false;
 };
 
@@ -160,12 +160,11 @@ PairScores pair_scores(const std::vector<gp::Gp>& gps, const Dataset& d, const M
   const auto E = static_cast<Eigen::Index>(gps.size());
   ps.factors.resize(gps.size());
   ps.constant.resize(E);
-  ps.sign = d.pairs.sign;
   for (Eigen::Index e = 0; e < E; ++e) {
     const gp::Gp& g = gps[static_cast<std::size_t>(e)];
     if (g.size() != 2 * n) return ps;
     MatrixXd C = g.kernel().gram(X1, X1);
-    C += ps.sign[e] * g.kernel().gram(X1, X2);
+    C += d.pairs.sign[e] * g.kernel().gram(X1, X2);
     C = 0.5 * (C + C.transpose()).eval();
     C.diagonal().array() += g.noise_variance();
     Eigen::LLT<MatrixXd> llt(C);

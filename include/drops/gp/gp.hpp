@@ -250,7 +250,8 @@ class Gp {
   double jitter_ = 0.0;        // extra diagonal added to K by the last successful factorisation
   int variance_points_ = 0;    // m of set_variance_points (0: all)
   // m x m, laid out as L_: the Cholesky factor of the last m points' K (with the same noise and
-  // jitter) when 0 < m < N and the last factorisation made it; otherwise 0 x 0 (variances then
+  // jitter) when 0 < m < N and the last factorisation made it (with set_variance_pairs, the
+  // factor of A + B, also for 2 h = N: see Lw_); otherwise 0 x 0 (variances then
   // use L_, exact: the state inside an Rprop search, between its iterations).
   Eigen::MatrixXd Lv_;
   int variance_pairs_ = 0;  // h of set_variance_pairs (0: not paired)
