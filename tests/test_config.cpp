@@ -197,6 +197,7 @@ TEST(Config, WrongTypesAndRangesNameKeyValueAndAllowed) {
   EXPECT_NE(m.find("invalid YAML"), std::string::npos) << m;
   m = error_of("task: cartpole\n");
   EXPECT_NE(m.find("unknown task (available: pendubot)"), std::string::npos) << m;
+  EXPECT_NE(m.find("drops.run(config, task="), std::string::npos) << m;  // a Python task's run
   m = error_of("", {"algorithm=ppo"});
   EXPECT_NE(m.find("black_drops, direct"), std::string::npos) << m;
 }

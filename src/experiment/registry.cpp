@@ -143,7 +143,9 @@ const TaskPlugin& Registry::task(const std::string& name) const {
     throw ConfigError("config key 'task' = '" + name + "': this drops does not offer the task: " +
                       u->second);
   throw ConfigError("config key 'task' = '" + name + "': unknown task (available: " +
-                    joined(task_names()) + ")");
+                    joined(task_names()) +
+                    "); a task written in Python runs from Python, with its objects: "
+                    "drops.run(config, task=..., system=..., prior=...) (docs/python.md)");
 }
 
 const AlgorithmPlugin& Registry::algorithm(const std::string& name) const {
