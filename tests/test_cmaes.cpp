@@ -70,43 +70,6 @@ TEST(Cmaes, SolvesSphere10D) {
   EXPECT_LT(s.evaluations, 20000);
 }
 
-// stall_runs: on the sphere every run after the first reaches the optimum the first run found, so
-// no restart improves the best by tol_fun and the search ends after exactly stall_runs of them
-// (the oracle: the runs' own records), well within a budget that, without the option, the
-// restarts use up.
-TEST(Cmaes, StallRunsEndTheSearchWhenRestartsStopImproving) {
-  CmaesOptions opt;
-  opt.sigma0 = 0.5;
-  opt.max_evaluations = 200000;
-  opt.max_restarts = 6;
-  opt.tol_fun = 1e-6;
-  const auto f = [](const VectorXd& x, std::uint64_t) { return Sphere(x); };
-  const auto without = cmaes_minimize(f, VectorXd::Ones(5), Unbounded(5, -1), Unbounded(5, 1), opt);
-  for (const int stall : {1, 2}) {
-    opt.stall_runs = stall;
-    const auto s = cmaes_minimize(f, VectorXd::Ones(5), Unbounded(5, -1), Unbounded(5, 1), opt);
-    EXPECT_EQ(s.termination, CmaesTermination::kStalled) << s.BriefReport();
-    EXPECT_NE(s.BriefReport().find("(Stalled)"), std::string::npos) << s.BriefReport();
-    ASSERT_EQ(s.runs.size(), static_cast<std::size_t>(1 + stall)) << s.BriefReport();
-    double best = s.runs[0].best_value;
-    for (std::size_t r = 1; r < s.runs.size(); ++r) {
-      EXPECT_FALSE(best - s.runs[r].best_value > opt.tol_fun) << "run " << r;
-      best = std::min(best, s.runs[r].best_value);
-    }
-    EXPECT_EQ(s.best_value, best);
-    EXPECT_LE(s.best_value, 1e-5);
-    EXPECT_LT(s.evaluations, without.evaluations);
-    // The same runs as the search without the option, up to where it stopped.
-    for (std::size_t r = 0; r < s.runs.size(); ++r)
-      EXPECT_EQ(s.runs[r].best_value, without.runs[r].best_value) << "run " << r;
-  }
-  EXPECT_GT(without.runs.size(), 3u);
-  opt.stall_runs = -1;
-  std::string why;
-  EXPECT_FALSE(opt.IsValid(&why));
-  EXPECT_NE(why.find("stall_runs"), std::string::npos) << why;
-}
-
 TEST(Cmaes, SolvesRosenbrock10D) {
   CmaesOptions opt;
   opt.sigma0 = 0.5;

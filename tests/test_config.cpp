@@ -3,16 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
-
-#include <unistd.h>
 
 #include "drops/core/errors.hpp"
 #include "drops/pendubot/pendubot.hpp"
 #include "drops/experiment/campaign.hpp"
-#include "drops/experiment/run.hpp"
 #include "drops/model/gp_dynamics.hpp"
 #include "drops/model/simulator_model.hpp"
 #include "fixtures.hpp"
@@ -523,24 +518,4 @@ TEST(Config, TheAlgorithmKeyListsTheRegisteredAlgorithmsEachWithItsSection) {
     const auto at = md.find("## Algorithm `" + a + "`\n\n" + registry().algorithm(a).description());
     EXPECT_NE(at, std::string::npos) << a;
   }
-}
-
-// A run directory written before optimizer.stall_runs existed (its config.yaml lacks the key)
-// resumes with the value of the code it was started with (0: the whole budget), not the
-// pendubot's default of 2; one that records the key keeps it; a new pendubot run takes 2.
-TEST(Config, AResumedRunThatPredatesStallRunsKeepsTheSearchItWasStartedWith) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("drops-test-stall-runs-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  auto write = [&](const std::string& yaml) {
-    std::ofstream(dir / "config.yaml") << yaml;
-    return experiment::resume_settings(registry(), dir, {});
-  };
-  EXPECT_EQ(write("task: pendubot\nmodel:\n  type: gp_mi\n").at("optimizer.stall_runs"), "0");
-  EXPECT_EQ(write("task: pendubot\noptimizer:\n  stall_runs: 2\n").at("optimizer.stall_runs"),
-            "2");
-  EXPECT_EQ(write("task: pendubot\noptimizer:\n  stall_runs: 3\n").at("optimizer.stall_runs"),
-            "3");
-  EXPECT_EQ(experiment::load_settings(registry(), "", {}).at("optimizer.stall_runs"), "2");
-  fs::remove_all(dir);
 }

@@ -24,12 +24,6 @@ KeyTable<opt::CmaesOptions> cmaes_key_table() {
       .range(0, 100)
       .help("large-population (IPOP) restarts after the first run; BIPOP's small runs come in "
             "between");
-  t.add("optimizer.stall_runs", [](auto& c) -> auto& { return c.stall_runs; })
-      .range(0, 1000)
-      .help("stop the search after this many runs in a row (restarts of either BIPOP regime) "
-            "ended without improving the best return found before them by more than "
-            "optimizer.tol_fun (0 = off: the whole budget is used); the policy search's only: "
-            "algorithm direct spends its whole budget of real episodes");
   t.add("optimizer.restart_from", [](auto& c) -> auto& { return c.restart_start; })
       .values({{"mixed", opt::CmaesRestartStart::kMixed},
                {"random", opt::CmaesRestartStart::kRandom},

@@ -204,7 +204,6 @@ class DirectPlugin final : public AlgorithmPlugin {
     o.seed = base.seed;
     o.theta_bound = base.search.theta_bound;
     o.cmaes = base.search.cmaes;
-    o.cmaes.stall_runs = 0;  // a run of `direct` is its budget of real episodes, all of them
     const std::string start = key_table().read(s).start;
     if (!start.empty()) o.start = read_start(start, setup.policy->param_dim(), o.theta_bound);
     std::string why;

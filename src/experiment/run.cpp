@@ -7,10 +7,7 @@
 
 #include <chrono>
 #include <cmath>
-#include <map>
 #include <memory>
-
-#include <yaml-cpp/yaml.h>
 
 #include "drops/core/errors.hpp"
 #include "drops/core/parallel.hpp"
@@ -73,30 +70,7 @@ Settings resume_settings(const Registry& registry, const std::filesystem::path& 
     throw Error(dir.string() + " is not a run directory (no config.yaml)");
   // Another format version is named before its config.yaml, whose keys may differ, is read.
   check_run_directory_format(dir);
-  Settings s = load_settings_file(registry, (dir / "config.yaml").string(), overrides);
-  // Keys added after runs existed, with a default that changes what such a run does: a
-  // config.yaml without one (written before the key) resumes with the value that reproduces the
-  // code it was started with, so that the resumed run continues as it began.
-  static const std::map<std::string, std::string> kValueBeforeTheKey = {
-      {"optimizer.stall_runs", "0"}};
-  const YAML::Node doc = YAML::LoadFile((dir / "config.yaml").string());
-  for (const auto& [key, value] : kValueBeforeTheKey) {
-    if (!s.count(key)) continue;
-    YAML::Node node;
-    node.reset(doc);
-    std::string rest = key;
-    bool present = true;
-    while (present && !rest.empty()) {
-      const auto dot = rest.find('.');
-      const std::string part = rest.substr(0, dot);
-      rest = dot == std::string::npos ? "" : rest.substr(dot + 1);
-      const YAML::Node parent = node;
-      present = parent.IsMap() && parent[part];
-      if (present) node.reset(parent[part]);
-    }
-    if (!present) s[key] = value;
-  }
-  return s;
+  return load_settings_file(registry, (dir / "config.yaml").string(), overrides);
 }
 
 RunOutcome run_experiment(const Registry& registry, const Settings& settings,

@@ -597,8 +597,6 @@ bool CmaesOptions::IsValid(std::string* why) const {
   if (keep_best < 1) return fail("keep_best = " + std::to_string(keep_best) + ": expected >= 1");
   if (max_restarts < 0)
     return fail("max_restarts = " + std::to_string(max_restarts) + ": expected >= 0");
-  if (stall_runs < 0)
-    return fail("stall_runs = " + std::to_string(stall_runs) + ": expected >= 0 (0 = off)");
   if (!(tol_x >= 0.0)) return fail("tol_x = " + fmt(tol_x) + ": expected >= 0");
   if (!(tol_fun >= 0.0)) return fail("tol_fun = " + fmt(tol_fun) + ": expected >= 0");
   if (!(tol_hist_fun >= 0.0))
@@ -617,7 +615,6 @@ std::string CmaesSummary::BriefReport() const {
     case CmaesTermination::kMaxRestarts: why = "MaxRestarts"; break;
     case CmaesTermination::kStopFitness: why = "StopFitness"; break;
     case CmaesTermination::kCallback: why = "Callback"; break;
-    case CmaesTermination::kStalled: why = "Stalled"; break;
   }
   return "cmaes: best " + fmt(best_value) + " after " + std::to_string(evaluations) +
          " evaluations, " + std::to_string(restarts) +
@@ -686,7 +683,6 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
   long budget_large = 0, budget_small = 0, last_large_evals = 0;
   long lambda_large = lambda_def;
   int large_restarts = 0;  // restarts of the large-population regime (limited by max_restarts)
-  int stalled = 0;         // consecutive runs that did not improve the best by tol_fun
   for (int r = 0;; ++r) {
     const long remaining = options.max_evaluations - summary.evaluations;
     if (remaining <= 0) {
@@ -741,7 +737,6 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
     run_budget = std::max(run_budget, lambda);
     CmaesRun record;
     record.small = small;
-    const double best_before = summary.best_value;
     const std::string reason = search.run(r, static_cast<int>(lambda), sigma, start, from_start,
                                           run_budget, budget_reason, record);
     record.stop_reason = reason;
@@ -755,16 +750,6 @@ CmaesSummary minimize_impl(const Objective* objective, const BatchObjective* bat
       last_large_evals = run_evals;
     }
     if (search.global_stop) break;
-    // Stall: the run did not improve the best found before it by more than tol_fun (the first
-    // run always does: nothing was found before it, or only the start).
-    if (r > 0 && !(best_before - summary.best_value > options.tol_fun))
-      ++stalled;
-    else
-      stalled = 0;
-    if (options.stall_runs > 0 && stalled >= options.stall_runs) {
-      summary.termination = CmaesTermination::kStalled;
-      break;
-    }
     if (!small && large_restarts >= options.max_restarts) {
       summary.termination = CmaesTermination::kMaxRestarts;
       break;

@@ -58,9 +58,7 @@ Experiment make_experiment(const Registry& registry, const Settings& settings,
                            const std::string& source);
 
 /// The settings to continue the run in `dir`: its config.yaml with `overrides` (key=value) applied,
-/// of which only episodes= (extend the run) and threads= are allowed. A key added after the run
-/// was started (absent from its config.yaml) whose default would change what the run does takes
-/// the value that reproduces it (optimizer.stall_runs: 0).
+/// of which only episodes= (extend the run) and threads= are allowed.
 /// Throws ConfigError when another key is overridden (naming it) or `dir` is empty; drops::Error
 /// when `dir` is not a directory, has no config.yaml or is of another run-directory format
 /// version (check_run_directory_format); ConfigError from load_settings_file for a bad value.

@@ -54,11 +54,6 @@ struct CmaesOptions {
   /// search ends after the run with lambda = 2^max_restarts * lambda0 (or the budget).
   /// CmaesSummary::restarts counts every restart of both regimes.
   int max_restarts = 3;
-  /// Stop the search after this many consecutive runs (restarts of either regime) that ended
-  /// without improving the best value found before them by more than tol_fun (>= 0; 0 = off:
-  /// restarts continue until max_evaluations or max_restarts). The first run always counts as
-  /// an improvement. Ends the search with CmaesTermination::kStalled.
-  int stall_runs = 0;
   /// Use BIPOP restarts; when false, restarts are IPOP (population doubling) only.
   bool bipop = true;
   /// Active covariance matrix update (negative weights, Jastrebski & Arnold 2006).
@@ -101,7 +96,6 @@ enum class CmaesTermination {
   kMaxRestarts,      ///< last permitted run stopped by its own criteria
   kStopFitness,      ///< reached options.stop_fitness
   kCallback,         ///< the user callback asked to stop
-  kStalled,          ///< options.stall_runs runs in a row did not improve the best by tol_fun
 };
 
 /// One CMA-ES run of a search (the first run or a restart).

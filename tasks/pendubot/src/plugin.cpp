@@ -151,10 +151,6 @@ class PendubotPlugin final : public experiment::TaskPlugin {
     // of the actual values and 94 % of new policies' returns fall inside the model's band
     // instead of 57 %; with prior C every tuning seed swings up at episode 2
     // (docs/decisions/pendubot-gp-mi-tolerance.md).
-    // The policy search stops after two CMA-ES runs in a row that did not improve its best
-    // return by optimizer.tol_fun: about half the evaluations, every tuning seed of priors A-C
-    // swinging up at episode 2 and 8 of 10 of prior D by episode 8
-    // (docs/decisions/pendubot-search-stall.md).
     // Catch and balance (policy.balance.mode lqr, docs/balance.md): with Q = I, R = 1 the LQR of
     // the true dynamics catches every one of 200 random states with cost-to-go e'Pe = 30 and 180
     // of 200 at 100 (torque-limited), so it takes over at 20 and hands back beyond 60.
@@ -163,8 +159,7 @@ class PendubotPlugin final : public experiment::TaskPlugin {
             {"model.gp_mi.score", "sum_likelihoods"},
             {"model.gp_mi.tolerance", "1e-9"},
             {"model.variance_points", "400"},
-            {"model.reflect_transitions", "true"},
-            {"optimizer.stall_runs", "2"}};
+            {"model.reflect_transitions", "true"}};
   }
 
   std::vector<KeySpec> keys() const override {
