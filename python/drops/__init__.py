@@ -24,7 +24,7 @@ import numpy as _np
 from . import _drops
 from ._drops import (ConfigError, Error, InvalidArgument, NumericalError, RunDirectoryBusy,
                      RunDirectoryDamaged, RunOutcome)
-from .robot import Parameter, Prior, Reflection, System, Task, _robot_spec, _unicode
+from .robot import Goal, Parameter, Prior, Reflection, System, Task, _robot_spec, _unicode
 from .description import DescriptionPrior
 from .identify import IdentifyResult, _result as _identify_result
 
@@ -34,7 +34,7 @@ __all__ = [
     "run", "resume", "config", "schema", "schema_markdown", "tasks", "algorithms", "read_run",
     "read_trajectory", "read_policy", "read_log", "RecordedLog", "LogSegment", "Run", "Trajectory", "RunOutcome", "Error", "ConfigError",
     "InvalidArgument", "NumericalError", "RunDirectoryBusy", "RunDirectoryDamaged", "Task",
-    "System", "Prior", "Parameter", "Reflection", "DescriptionPrior", "identify",
+    "System", "Prior", "Parameter", "Reflection", "Goal", "DescriptionPrior", "identify",
     "IdentifyResult",
 ]
 

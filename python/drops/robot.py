@@ -2,7 +2,7 @@
 
 - a Task (subclass drops.Task): dimensions, horizon, control period, start state, observation,
   reward, success criterion, the bounds of the policy's action, and optionally a reflection
-  symmetry of the robot (drops.Reflection);
+  symmetry of the robot (drops.Reflection) and a goal state for catch and balance (drops.Goal);
 - a System (subclass drops.System): the "real" robot, either step(x, u) for a simulated one or
   begin_episode(x0) returning a session with step(u) for a physical one;
 - a Prior (subclass drops.Prior, optional): a simulator with named tunable parameters phi and
@@ -72,6 +72,31 @@ class Reflection:
     state_offset: object = None
 
 
+@_dataclass
+class Goal:
+    """A goal state that a Task may declare (C++: drops::Goal): where catch and balance
+    (policy.balance.mode: lqr, docs/balance.md) hands over from the learned policy to an LQR
+    computed from the learned model's mean linearised at (state, action). Without a goal the
+    task refuses policy.balance.mode: lqr.
+
+    state: E finite entries, the goal x* in the raw state's units (e.g. a pendulum upright at
+      rest: [0, pi] for [dtheta, theta] with theta from hanging).
+    action: A finite entries, the action that holds x* (None: zeros).
+    angles: indices (0 to E - 1) of the state entries that are angles in rad: the controller's
+      error x - x* wraps them into [-pi, pi) (default: none).
+    action_limit: A entries > 0, the bounds |u_i| <= action_limit[i] that the controller's
+      actions are clipped to (None: Task.max_action for each).
+
+    drops.run and drops.resume raise ValueError naming the field for a wrong number of entries,
+    a non-finite value, a limit <= 0 or an angle index out of range, and TypeError when
+    Task.goal is neither a drops.Goal nor None. Plain data: no thread constraints.
+    """
+    state: object
+    action: object = None
+    angles: object = ()
+    action_limit: object = None
+
+
 class Task:
     """What an episode is (everything but the dynamics). Subclass it and set the attributes.
 
@@ -89,6 +114,8 @@ class Task:
       hidden_units: the policy network's tanh units (the default of the key policy.hidden_units).
       reflection: a drops.Reflection, the robot's reflection symmetry, or None (default: none).
         model.reflect_transitions: true needs one.
+      goal: a drops.Goal, the state that catch and balance stabilises, or None (default: none).
+        policy.balance.mode: lqr needs one.
 
     Methods to write; they are called from drops's threads, one call at a time (the interpreter
     lock), and must not depend on the order of the calls:
@@ -111,6 +138,7 @@ class Task:
     observation_scale = None
     hidden_units = 10
     reflection = None
+    goal = None
 
     def initial_state(self):
         """x_0, an array (E,)."""
@@ -319,6 +347,46 @@ def _reflection_spec(value, E, A, tname):
             "action_sign": field(value.action_sign, A, "action_sign", True)}
 
 
+def _goal_spec(value, E, A, max_action, tname):
+    """Task.goal checked: None, or a dict of lists for the C++ side; raises TypeError or
+    ValueError naming the field."""
+    if value is None:
+        return None
+    if not isinstance(value, Goal):
+        raise TypeError(f"{tname}.goal: expected a drops.Goal or None, got "
+                        f"{type(value).__name__}")
+
+    def field(v, n, what, default):
+        try:
+            a = _np.full(n, default, dtype=float) if v is None else \
+                _np.asarray(v, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise ValueError(f"{tname}.goal.{what}: expected {n} numbers, got {_shown(v)}") \
+                from None
+        if a.shape != (n,):
+            raise ValueError(f"{tname}.goal.{what}: expected {n} entries, got {a.size}")
+        if not _np.all(_np.isfinite(a)):
+            raise ValueError(f"{tname}.goal.{what}: expected finite entries, got {a.tolist()}")
+        return a
+
+    state = field(value.state, E, "state", 0.0)
+    action = field(value.action, A, "action", 0.0)
+    limit = field(value.action_limit, A, "action_limit", max_action)
+    if _np.any(limit <= 0):
+        raise ValueError(f"{tname}.goal.action_limit: expected entries > 0, got {limit.tolist()}")
+    if isinstance(value.angles, (str, bytes)):
+        raise TypeError(f"{tname}.goal.angles: expected a list of state indices, got "
+                        f"{_shown(value.angles)}")
+    angles = []
+    for a in value.angles:
+        if isinstance(a, bool) or not isinstance(a, (int, _np.integer)) or not 0 <= a < E:
+            raise ValueError(f"{tname}.goal.angles: expected state indices in [0, {E - 1}], got "
+                             f"{_shown(list(value.angles))}")
+        angles.append(int(a))
+    return {"state": state.tolist(), "action": action.tolist(), "action_limit": limit.tolist(),
+            "angles": angles}
+
+
 def _robot_spec(task, system, prior, builtin_tasks=()):
     """Checks the user's objects and returns what the C++ side reads (a dict); raises TypeError
     or ValueError naming the attribute (docs/python.md, "What drops refuses"). builtin_tasks: the
@@ -373,6 +441,7 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
         raise ValueError(f"{tname}.observation_scale: expected {O} non-zero divisors, got "
                          f"{scale.tolist()}")
     reflection = _reflection_spec(task.reflection, E, A, tname)
+    goal = _goal_spec(task.goal, E, A, max_action, tname)
     pname = type(prior).__name__
     params = []
     if prior is not None:
@@ -418,6 +487,8 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
     }
     if reflection is not None:
         declaration["python.reflection"] = repr(reflection)
+    if goal is not None:
+        declaration["python.goal"] = repr(goal)
     return {
         "name": name,
         "description": f"a task written in Python ({tname})",
@@ -432,6 +503,7 @@ def _robot_spec(task, system, prior, builtin_tasks=()):
         "max_action": max_action, "observation_scale": scale.tolist(),
         "hidden_units": hidden,
         "reflection": reflection,
+        "goal": goal,
         "phi_names": [p.name for p in params], "phi_units": [p.unit for p in params],
         "phi_values": values, "phi_lower": lower, "phi_upper": upper,
         "phi_tunable": [bool(p.tunable) for p in params],

@@ -135,6 +135,7 @@ struct Spec {
   // A drops.DescriptionPrior's C++ prior (built for the task's dt), used by the run directly.
   std::shared_ptr<const model::MeanFunction> native_prior;
   std::optional<Reflection> reflection;  // Task.reflection, checked by drops.robot
+  std::optional<Goal> goal;              // Task.goal, checked by drops.robot and Goal::check
 };
 
 VectorXd vector_from(py::handle h) {
@@ -176,6 +177,12 @@ Spec read_spec(const py::dict& d) {
     const auto rd = py::reinterpret_borrow<py::dict>(r);
     s.reflection = Reflection{vector_from(rd["state_sign"]), vector_from(rd["state_offset"]),
                               vector_from(rd["action_sign"])};
+  }
+  if (const py::handle g = d["goal"]; !g.is_none()) {
+    const auto gd = py::reinterpret_borrow<py::dict>(g);
+    s.goal = Goal{vector_from(gd["state"]), vector_from(gd["action"]),
+                  vector_from(gd["action_limit"]), gd["angles"].cast<std::vector<int>>()};
+    s.goal->check(s.E, s.A);
   }
   return s;
 }
@@ -235,6 +242,7 @@ class PyTask final : public Task {
       }
   }
   std::optional<Reflection> reflection() const override { return s_.reflection; }
+  std::optional<Goal> goal() const override { return s_.goal; }
   bool solved(const Trajectory& tr) const override {
     return with_python(*c_.errors, s_.task_class + ".solved", [&] {
       return py::bool_(c_.solved(to_array(tr.states), to_array(tr.actions), to_array(tr.rewards)))

@@ -3,7 +3,8 @@ prior and swings it up; a callback's exception comes out as itself and the run r
 inside a callback stops the run after its step (a physical robot's step is never repeated); wrong
 shapes and non-finite values are refused naming the callback; the same seed gives the same
 episodes with 1 and 2 threads; the algorithms that need only a task, a system and a prior run; a
-declared reflection reaches the model and a wrong one is refused naming the field."""
+declared reflection reaches the model and a wrong one is refused naming the field; a declared
+goal gives catch and balance the LQR of the learned model, and a wrong one is refused."""
 
 import csv
 import json
@@ -282,3 +283,76 @@ def test_a_declared_reflection_is_learned_and_a_wrong_one_is_refused_naming_the_
         drops.run(overrides={**SMALL, "model.reflect_transitions": True}, output=tmp_path,
                   name="none", quiet=True, progress=lambda line: None, task=task,
                   system=pendulum.RealPendulum(), prior=pendulum.PendulumPrior())
+
+
+def lqr_gain(m, l, b=pendulum.PendulumPrior.b, dt=pendulum.SwingUp.dt, h=1e-5):
+    """The oracle: the LQR gain (Q = I, R = 1) of the example pendulum with mass m and length l
+    linearised upright at rest by central differences, the Riccati recursion run to a fixed
+    point."""
+    xs = np.array([0.0, np.pi])
+
+    def f(x, u):
+        return pendulum.pendulum_step(x[None, :], np.array([[u]]), m, l, b, dt)[0]
+
+    A = np.stack([(f(xs + d, 0.0) - f(xs - d, 0.0)) / (2 * h) for d in np.eye(2) * h], axis=1)
+    B = ((f(xs, h) - f(xs, -h)) / (2 * h))[:, None]
+    P = np.eye(2)
+    for _ in range(10000):
+        K = np.linalg.solve(1.0 + B.T @ P @ B, B.T @ P @ A)
+        P_next = np.eye(2) + A.T @ P @ (A - B @ K)
+        done = np.max(np.abs(P_next - P)) < 1e-13 * np.max(np.abs(P))
+        P = P_next
+        if done:
+            break
+    return np.linalg.solve(1.0 + B.T @ P @ B, B.T @ P @ A)[0]
+
+
+def test_a_declared_goal_lets_catch_and_balance_run_and_a_wrong_one_is_refused_naming_the_field(
+        tmp_path):
+    # The pendulum upright at rest (theta from hanging, an angle). With policy.balance.mode lqr,
+    # each episode's LQR comes from the model it plans on: episode 1's from the prior (m = 0.6,
+    # l = 0.7), the later ones' from GP-MI's model of the real pendulum (m = l = 1). The oracle
+    # is the LQR of each pendulum's own linearisation.
+    task = pendulum.SwingUp()
+    task.goal = drops.Goal(state=[0, np.pi], angles=[1])
+    out = drops.run(overrides={"model.type": "gp_mi", "episodes": 4,
+                               "optimizer.max_evaluations": 1500,
+                               "optimizer.prior_optimizations": 1, "policy.balance.mode": "lqr"},
+                    seed=1, output=tmp_path, name="lqr", quiet=True, progress=lambda line: None,
+                    task=task, system=pendulum.RealPendulum(), prior=pendulum.PendulumPrior())
+    assert out.status == "complete"
+    episodes = json.loads((tmp_path / "lqr" / "summary.json").read_text())["episodes"]
+
+    def gain(e):
+        return np.array([e["details"]["balance_k_0_0"], e["details"]["balance_k_0_1"]])
+
+    # Measured with seed 1: K = [1.8881, 6.9730] in episode 1 and [5.3932, 17.0239] from
+    # episode 2 on, against the oracle's [1.8881, 6.9730] and [5.3931, 17.0238].
+    np.testing.assert_allclose(gain(episodes[0]), lqr_gain(0.6, 0.7), rtol=1e-3)
+    np.testing.assert_allclose(gain(episodes[-1]), lqr_gain(1.0, 1.0), rtol=1e-2)
+    assert all(e["details"]["balance_usable"] == 1 for e in episodes)
+    # The real episode hands over (measured: at step 26, 14 steps under the LQR) and is solved.
+    last = episodes[-1]
+    assert last["details"]["balance_first_step"] >= 0 and last["details"]["balance_steps"] > 0
+    assert last["solved"], [e["real_return"] for e in episodes]
+
+    bad = [(drops.Goal(state=[0, np.pi, 0]), ValueError,
+            r"SwingUp\.goal\.state: expected 2 entries, got 3"),
+           (drops.Goal(state=[0, np.nan]), ValueError,
+            r"SwingUp\.goal\.state: expected finite entries"),
+           (drops.Goal(state=[0, np.pi], angles=[2]), ValueError,
+            r"SwingUp\.goal\.angles: expected state indices in \[0, 1\], got \[2\]"),
+           (drops.Goal(state=[0, np.pi], action_limit=[0]), ValueError,
+            r"SwingUp\.goal\.action_limit: expected entries > 0"),
+           (drops.Goal(state=[0, np.pi], action=[0, 0]), ValueError,
+            r"SwingUp\.goal\.action: expected 1 entries, got 2"),
+           ([0, np.pi], TypeError, r"SwingUp\.goal: expected a drops\.Goal or None, got list")]
+    for goal, error, message in bad:
+        task = pendulum.SwingUp()
+        task.goal = goal
+        with pytest.raises(error, match=message):
+            drops.run(output=tmp_path, task=task, system=pendulum.RealPendulum())
+    # lqr needs a declared goal.
+    with pytest.raises(drops.ConfigError, match="declares no goal state"):
+        drops.run(overrides={**SMALL, "policy.balance.mode": "lqr"}, output=tmp_path,
+                  name="no-goal", quiet=True, progress=lambda line: None, **robot())
