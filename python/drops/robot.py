@@ -321,24 +321,42 @@ def _array(value, what, n):
     return a
 
 
+def _declared(value, cls, what):
+    """Whether the optional declaration `what` (Task.reflection, Task.goal) is given: False for
+    None, True for a cls; TypeError naming it otherwise."""
+    if value is None:
+        return False
+    if not isinstance(value, cls):
+        raise TypeError(f"{what}: expected a drops.{cls.__name__} or None, got "
+                        f"{type(value).__name__}")
+    return True
+
+
+def _declared_entries(value, n, what, default):
+    """An array field of a declaration (Task.reflection, Task.goal): None gives n copies of
+    default, anything else must be n finite numbers; raises ValueError naming the field."""
+    try:
+        a = _np.full(n, default, dtype=float) if value is None else \
+            _np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: expected {n} numbers, got {_shown(value)}") from None
+    if a.shape != (n,):
+        raise ValueError(f"{what}: expected {n} entries, got {a.size}")
+    if not _np.all(_np.isfinite(a)):
+        raise ValueError(f"{what}: expected finite entries, got {a.tolist()}")
+    return a
+
+
 def _reflection_spec(value, E, A, tname):
     """Task.reflection checked: None, or a dict of lists for the C++ side; raises TypeError or
     ValueError naming the field."""
-    if value is None:
+    if not _declared(value, Reflection, f"{tname}.reflection"):
         return None
-    if not isinstance(value, Reflection):
-        raise TypeError(f"{tname}.reflection: expected a drops.Reflection or None, got "
-                        f"{type(value).__name__}")
 
     def field(v, n, what, signs):
-        a = _np.zeros(n) if v is None else _np.asarray(v, dtype=float).reshape(-1)
-        if a.shape != (n,):
-            raise ValueError(f"{tname}.reflection.{what}: expected {n} entries, got {a.size}")
+        a = _declared_entries(v, n, f"{tname}.reflection.{what}", 0.0)
         if signs and not _np.all(_np.abs(a) == 1):
             raise ValueError(f"{tname}.reflection.{what}: expected +1 or -1 entries, got "
-                             f"{a.tolist()}")
-        if not _np.all(_np.isfinite(a)):
-            raise ValueError(f"{tname}.reflection.{what}: expected finite entries, got "
                              f"{a.tolist()}")
         return a.tolist()
 
@@ -350,28 +368,11 @@ def _reflection_spec(value, E, A, tname):
 def _goal_spec(value, E, A, max_action, tname):
     """Task.goal checked: None, or a dict of lists for the C++ side; raises TypeError or
     ValueError naming the field."""
-    if value is None:
+    if not _declared(value, Goal, f"{tname}.goal"):
         return None
-    if not isinstance(value, Goal):
-        raise TypeError(f"{tname}.goal: expected a drops.Goal or None, got "
-                        f"{type(value).__name__}")
-
-    def field(v, n, what, default):
-        try:
-            a = _np.full(n, default, dtype=float) if v is None else \
-                _np.asarray(v, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            raise ValueError(f"{tname}.goal.{what}: expected {n} numbers, got {_shown(v)}") \
-                from None
-        if a.shape != (n,):
-            raise ValueError(f"{tname}.goal.{what}: expected {n} entries, got {a.size}")
-        if not _np.all(_np.isfinite(a)):
-            raise ValueError(f"{tname}.goal.{what}: expected finite entries, got {a.tolist()}")
-        return a
-
-    state = field(value.state, E, "state", 0.0)
-    action = field(value.action, A, "action", 0.0)
-    limit = field(value.action_limit, A, "action_limit", max_action)
+    state = _declared_entries(value.state, E, f"{tname}.goal.state", 0.0)
+    action = _declared_entries(value.action, A, f"{tname}.goal.action", 0.0)
+    limit = _declared_entries(value.action_limit, A, f"{tname}.goal.action_limit", max_action)
     if _np.any(limit <= 0):
         raise ValueError(f"{tname}.goal.action_limit: expected entries > 0, got {limit.tolist()}")
     if isinstance(value.angles, (str, bytes)):
