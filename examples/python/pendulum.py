@@ -144,6 +144,9 @@ def main():
     parser.add_argument("--reflect", action="store_true",
                         help="learn every transition and its mirror image "
                              "(model.reflect_transitions, SwingUp.reflection)")
+    parser.add_argument("--balance", action="store_true",
+                        help="catch and balance: near upright an LQR of the learned model takes "
+                             "over (policy.balance.mode lqr, SwingUp's goal)")
     parser.add_argument("--dt", type=float, default=SwingUp.dt,
                         help="control period (s; default %(default)s)")
     parser.add_argument("--horizon", type=int, default=SwingUp.horizon,
@@ -163,9 +166,14 @@ def main():
                 "model.reflect_transitions": args.reflect}
     if args.variance_points is not None:
         settings["model.variance_points"] = args.variance_points
+    task = SwingUp()
+    if args.balance:
+        # Upright at rest (theta from hanging is an angle): the state the LQR holds.
+        task.goal = drops.Goal(state=[0.0, np.pi], angles=[1])
+        settings["policy.balance.mode"] = "lqr"
     out = drops.run(overrides=settings,
                     seed=args.seed, output=args.output,
-                    task=SwingUp(), system=RealPendulum(), prior=PendulumPrior())
+                    task=task, system=RealPendulum(), prior=PendulumPrior())
     run = drops.read_run(out.directory)
     print("identified phi:", dict(zip(run.phi_names, run.episodes["phi"][-1])))
     png = pathlib.Path(out.directory) / "learning-curve.png"
