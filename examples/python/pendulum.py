@@ -131,6 +131,8 @@ def plot_learning_curve(run, path):
     b.set_ylabel("phi (kg, m)")
     b.set_title("prior parameters")
     b.legend()
+    for ax in (a, b):
+        ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))  # episodes
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
