@@ -310,14 +310,21 @@ def _real(value, what, lo=-_math.inf, hi=_math.inf, positive=False):
     return x
 
 
-def _array(value, what, n):
-    """A finite float64 array of n entries."""
+def _array(value, what, n, default=None):
+    """A finite float64 array of n entries; None gives n copies of default when one is given.
+    Raises ValueError naming `what` (the count, or the entries that are not finite)."""
+    if value is None:
+        if default is not None:
+            return _np.full(n, default, dtype=float)
+        raise ValueError(f"{what}: expected {n} finite numbers, got None")
     try:
         a = _np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{what}: expected {n} finite numbers, got {_shown(value)}") from None
-    if a.shape != (n,) or not _np.all(_np.isfinite(a)):
-        raise ValueError(f"{what}: expected {n} finite numbers, got {_shown(value)}")
+    if a.shape != (n,):
+        raise ValueError(f"{what}: expected {n} entries, got {a.size}")
+    if not _np.all(_np.isfinite(a)):
+        raise ValueError(f"{what}: expected finite entries, got {a.tolist()}")
     return a
 
 
@@ -332,21 +339,6 @@ def _declared(value, cls, what):
     return True
 
 
-def _declared_entries(value, n, what, default):
-    """An array field of a declaration (Task.reflection, Task.goal): None gives n copies of
-    default, anything else must be n finite numbers; raises ValueError naming the field."""
-    try:
-        a = _np.full(n, default, dtype=float) if value is None else \
-            _np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}: expected {n} numbers, got {_shown(value)}") from None
-    if a.shape != (n,):
-        raise ValueError(f"{what}: expected {n} entries, got {a.size}")
-    if not _np.all(_np.isfinite(a)):
-        raise ValueError(f"{what}: expected finite entries, got {a.tolist()}")
-    return a
-
-
 def _reflection_spec(value, E, A, tname):
     """Task.reflection checked: None, or a dict of lists for the C++ side; raises TypeError or
     ValueError naming the field."""
@@ -354,7 +346,7 @@ def _reflection_spec(value, E, A, tname):
         return None
 
     def field(v, n, what, signs):
-        a = _declared_entries(v, n, f"{tname}.reflection.{what}", 0.0)
+        a = _array(v, f"{tname}.reflection.{what}", n, 0.0)
         if signs and not _np.all(_np.abs(a) == 1):
             raise ValueError(f"{tname}.reflection.{what}: expected +1 or -1 entries, got "
                              f"{a.tolist()}")
@@ -370,9 +362,9 @@ def _goal_spec(value, E, A, max_action, tname):
     ValueError naming the field."""
     if not _declared(value, Goal, f"{tname}.goal"):
         return None
-    state = _declared_entries(value.state, E, f"{tname}.goal.state", 0.0)
-    action = _declared_entries(value.action, A, f"{tname}.goal.action", 0.0)
-    limit = _declared_entries(value.action_limit, A, f"{tname}.goal.action_limit", max_action)
+    state = _array(value.state, f"{tname}.goal.state", E)
+    action = _array(value.action, f"{tname}.goal.action", A, 0.0)
+    limit = _array(value.action_limit, f"{tname}.goal.action_limit", A, max_action)
     if _np.any(limit <= 0):
         raise ValueError(f"{tname}.goal.action_limit: expected entries > 0, got {limit.tolist()}")
     if isinstance(value.angles, (str, bytes)):

@@ -338,6 +338,8 @@ def test_a_declared_goal_lets_catch_and_balance_run_and_a_wrong_one_is_refused_n
 
     bad = [(drops.Goal(state=[0, np.pi, 0]), ValueError,
             r"SwingUp\.goal\.state: expected 2 entries, got 3"),
+           (drops.Goal(state=None), ValueError,
+            r"SwingUp\.goal\.state: expected 2 finite numbers, got None"),
            (drops.Goal(state=[0, np.nan]), ValueError,
             r"SwingUp\.goal\.state: expected finite entries"),
            (drops.Goal(state=[0, np.pi], angles=[2]), ValueError,
