@@ -253,4 +253,15 @@ TEST(Balance, BlackDropsRecordsTheGainAndRunsTheHybrid) {
   EXPECT_THROW(fixtures::experiment(
                    {"policy.balance.mode=lqr", "policy.balance.enter=2", "policy.balance.exit=1"}),
                ConfigError);
+  // Only Black-DROPS catches and balances: the other algorithms refuse lqr instead of ignoring it.
+  for (const char* a : {"algorithm=direct", "algorithm=ite", "algorithm=pilco"}) {
+    try {
+      fixtures::experiment({a, "policy.balance.mode=lqr"});
+      ADD_FAILURE() << a << " accepted policy.balance.mode=lqr";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("does not catch and balance"), std::string::npos)
+          << a << ": " << e.what();
+    }
+  }
+  EXPECT_NO_THROW(fixtures::experiment({"algorithm=pilco", "policy.balance.mode=off"}));
 }

@@ -168,6 +168,7 @@ class BlackDropsPlugin final : public AlgorithmPlugin {
     return std::make_unique<algo::BlackDrops>(with_data);
   }
   bool takes_recorded_data(const Settings&) const override { return true; }
+  bool takes_balance(const Settings&) const override { return true; }
 
  private:
   const Registry& registry_;  // owns this plugin
@@ -479,6 +480,11 @@ Experiment make_experiment(const Registry& registry, const Settings& settings) {
     generic(e.setup.action_names, "u", e.setup.task->action_dim());
   }
   check_setup_names(e.task, e.setup, algorithm.uses_prior(st));
+  if (st.count("policy.balance.mode") && st.at("policy.balance.mode") != "off" &&
+      !algorithm.takes_balance(st))
+    throw ConfigError("config key 'policy.balance.mode' = '" + st.at("policy.balance.mode") +
+                      "': algorithm '" + e.algorithm +
+                      "' does not catch and balance (black_drops does); use policy.balance.mode off");
   // Recorded data (data.logs): read, resampled and checked before anything runs.
   if (st.count("data.logs") && st.at("data.logs") != "[]" && !st.at("data.logs").empty()) {
     if (!algorithm.takes_recorded_data(st))

@@ -263,6 +263,13 @@ class AlgorithmPlugin {
     (void)settings;
     return false;
   }
+  /// Whether the runs honour policy.balance.* (catch and balance, docs/balance.md);
+  /// make_experiment refuses policy.balance.mode other than off for an algorithm that does not.
+  /// Default: false.
+  virtual bool takes_balance(const Settings& settings) const {
+    (void)settings;
+    return false;
+  }
   /// Builds the algorithm for validated settings and the built task. Throws ConfigError naming
   /// the key on invalid combinations.
   virtual std::unique_ptr<algo::Algorithm> make(const Settings& settings,
