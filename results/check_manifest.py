@@ -55,6 +55,9 @@ SUMMARY_COLUMNS = {
     "summaries/pendubot-gp_mi-fresh-tol9.csv": COMMON + [
         "phi_m1", "phi_m2", "phi_l1", "phi_l2", "phi_b1", "phi_b2", "calibration_quantile",
         "calibration_inside_band", "calibration_gap", "calibration_replay"],
+    "summaries/pendubot-gp_mi-fresh-blocks.csv": COMMON + [
+        "phi_m1", "phi_m2", "phi_l1", "phi_l2", "phi_b1", "phi_b2", "calibration_quantile",
+        "calibration_inside_band", "calibration_gap", "calibration_replay"],
     "summaries/hexapod-fresh.csv": COMMON + [
         "speed_m_s", "predicted_speed_m_s", "phi_prior", "calibration_quantile",
         "calibration_inside_band", "calibration_gap", "calibration_replay"],

@@ -20,6 +20,11 @@ writes to docs/results/ (or DIR):
                                     101-120 with each prior, its phi search to a relative
                                     tolerance of 1e-9 (every run and the median) and of 1e-4 (the
                                     median)
+  pendubot-blocks-returns.png       results/summaries/pendubot-gp_mi-fresh-blocks.csv and
+                                    pendubot-gp_mi-fresh-tol9.csv: GP-MI on the fresh seeds
+                                    101-120 with each prior, with the block computations of the
+                                    reflected transitions (every run and the median) and before
+                                    them (the median)
   hexapod-speed.png                 results/summaries/hexapod.csv and hexapod-ceiling.csv: the
                                     walking speed per episode of gp_mi, gp_prior (the runs of
                                     configs/campaign-hexapod.yaml) and IT&E, seeds 1-5, intact and
@@ -254,6 +259,16 @@ def pendubot_tolerance(output):
         "pendubot-tolerance-returns.png")
 
 
+def pendubot_blocks(output):
+    pendubot_before_after(
+        output, "pendubot-gp_mi-fresh-blocks.csv", "pendubot-gp_mi-fresh-tol9.csv",
+        "block computations (the default): median, 25–75 %",
+        "before them (the same seeds): median, 25–75 %",
+        "Pendubot, Black-DROPS with GP-MI on fresh seeds, with the reflected transitions' block "
+        "computations and before them:\nreturn on the real system per episode",
+        "pendubot-blocks-returns.png")
+
+
 def hexapod_speed(output):
     rows = [r for r in read("hexapod.csv") if int(r["seed"]) <= 5]
     ceilings = read("hexapod-ceiling.csv")
@@ -392,6 +407,7 @@ def main():
     pendubot_gp_mi_fresh(args.output)
     pendubot_reflected(args.output)
     pendubot_tolerance(args.output)
+    pendubot_blocks(args.output)
     hexapod_speed(args.output)
     hexapod_20_seeds(args.output)
     hexapod_fresh(args.output)
