@@ -20,6 +20,15 @@ TEST(PolicyCostHint, SaysTheTimeTheDataAndTheKeysWhenASearchIsLongAndGrew) {
   // With a cap below N the variance costs O(m^2).
   const std::string capped = policy_cost_hint(9, 90, 40, 800, 400, 10000);
   EXPECT_NE(capped.find("O(m^2) (model.variance_points = 400)"), std::string::npos) << capped;
+  // With sparse GPs (model.inducing_points below N) the cost does not grow with N: the hint
+  // says so and names the sparse key, not the variance cap.
+  const std::string sparse = policy_cost_hint(6, 45, 25, 2500, 0, 10000, 200);
+  EXPECT_NE(sparse.find("at most m = 200 inducing inputs"), std::string::npos) << sparse;
+  EXPECT_NE(sparse.find("whatever N"), std::string::npos) << sparse;
+  EXPECT_EQ(sparse.find("grows with N"), std::string::npos) << sparse;
+  EXPECT_EQ(sparse.find("variance_points"), std::string::npos) << sparse;
+  // Below the cap the GPs are exact: the exact hint.
+  EXPECT_NE(policy_cost_hint(4, 112, 46, 150, 0, 10000, 200).find("O(N^2)"), std::string::npos);
 }
 
 TEST(PolicyCostHint, IsSilentForShortSearchesSteadyOnesAndTheFirst) {

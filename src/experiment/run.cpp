@@ -29,16 +29,28 @@ std::string phi_brief(const VectorXd& phi, const model::PriorParameters& p) {
 }  // namespace
 
 std::string policy_cost_hint(int episode, double seconds, double previous_seconds,
-                             long transitions, long variance_points, long max_evaluations) {
+                             long transitions, long variance_points, long max_evaluations,
+                             long inducing_points) {
   if (!(seconds >= 30 && previous_seconds > 0 && seconds >= 1.5 * previous_seconds)) return "";
-  const bool capped = variance_points > 0 && transitions > variance_points;
-  return fmt::format(
+  const std::string head = fmt::format(
       "hint: episode {}'s policy search took {:.0f} s ({:.0f} s the episode before), with the "
-      "model on N = {} recorded transitions. Its cost grows with N: every prediction's mean costs "
+      "model on N = {} recorded transitions. ",
+      episode, seconds, previous_seconds, transitions);
+  if (inducing_points > 0 && transitions > inducing_points)
+    return head + fmt::format(
+        "The model's sparse GPs predict from at most m = {} inducing inputs "
+        "(model.inducing_points): a prediction's mean costs O(m) and its variance O(m^2), "
+        "whatever N, so this growth is not the data's. Each of optimizer.max_evaluations = {} "
+        "evaluations costs the horizon's steps times that; fewer evaluations or a smaller "
+        "model.inducing_points trade it; docs/python.md, \"What a run costs\"",
+        inducing_points, max_evaluations);
+  const bool capped = variance_points > 0 && transitions > variance_points;
+  return head + fmt::format(
+      "Its cost grows with N: every prediction's mean costs "
       "O(N) and its variance O({}){}, for each of optimizer.max_evaluations = {} evaluations "
       "times the horizon's steps. Fewer evaluations, model.variance_points (a cap m on the "
       "variance's points) or fewer episodes trade it; docs/python.md, \"What a run costs\"",
-      episode, seconds, previous_seconds, transitions, capped ? "m^2" : "N^2",
+      capped ? "m^2" : "N^2",
       variance_points > 0 ? fmt::format(" (model.variance_points = {})", variance_points)
                           : std::string(" (model.variance_points = 0: every transition)"),
       max_evaluations);
@@ -193,13 +205,14 @@ RunOutcome run_experiment(const Registry& registry, const Settings& settings,
   // Base keys: every validated experiment has them.
   const long variance_points = static_cast<long>(get_int(e.settings, "model.variance_points"));
   const long max_evaluations = static_cast<long>(get_int(e.settings, "optimizer.max_evaluations"));
+  const long inducing_points = static_cast<long>(get_int(e.settings, "model.inducing_points"));
   cb.on_episode = [&](const algo::EpisodeRecord& r) {
     dir->record(r);
     clear();
     if (!hinted && e.uses_model && r.keep_trajectories) {
       const std::string hint =
           policy_cost_hint(r.episode, r.policy_seconds, previous_policy_seconds, transitions,
-                           variance_points, max_evaluations);
+                           variance_points, max_evaluations, inducing_points);
       if (!hint.empty() && !quiet) {
         out.line(hint);
         hinted = true;
