@@ -265,7 +265,8 @@ KeyTable<BaseOptions> make_base_key_table() {
             "an LQR on the learned model's mean linearised at the goal, recomputed after each "
             "learning step, takes over from the learned policy inside the region of "
             "policy.balance.enter, in the model's rollouts as on the real system; off = the "
-            "learned policy alone. lqr needs a task that declares a goal state (Task::goal)");
+            "learned policy alone. lqr needs a task that declares a goal state (Task::goal) and "
+            "algorithm black_drops (the others refuse it)");
   t.add("policy.balance.q", [=](auto& o) -> auto& { return balance(o).q; })
       .range(1e-9, 1e9)
       .help("policy.balance.mode lqr: the LQR's state weight Q = q I (raw state's units)");
