@@ -39,8 +39,8 @@ std::string policy_cost_hint(int episode, double seconds, double previous_second
   if (inducing_points > 0 && transitions > inducing_points)
     return head + fmt::format(
         "The model's sparse GPs predict from at most m = {} inducing inputs "
-        "(model.inducing_points): a prediction's mean costs O(m) and its variance O(m^2), "
-        "whatever N, so this growth is not the data's. Each of optimizer.max_evaluations = {} "
+        "(model.inducing_points; fewer while fewer explain the data): a prediction's mean costs "
+        "at most O(m) and its variance O(m^2), whatever N. Each of optimizer.max_evaluations = {} "
         "evaluations costs the horizon's steps times that; fewer evaluations or a smaller "
         "model.inducing_points trade it; docs/python.md, \"What a run costs\"",
         inducing_points, max_evaluations);

@@ -12,8 +12,9 @@ namespace drops::experiment {
 /// variance O(N^2) without a cap, `variance_points` 0, else O(m^2)) and which keys trade it
 /// (optimizer.max_evaluations = `max_evaluations`, model.variance_points, episodes), pointing to
 /// docs/python.md, "What a run costs". With sparse GPs in use (`inducing_points` > 0 and below
-/// `transitions`: model.inducing_points) it says instead that a prediction costs O(m) and
-/// O(m^2) whatever N, and names optimizer.max_evaluations and model.inducing_points. Empty when
+/// `transitions`: model.inducing_points) it says instead that a prediction costs at most O(m)
+/// and O(m^2) whatever N (the greedy selection may choose fewer than m inputs while fewer explain
+/// the data), and names optimizer.max_evaluations and model.inducing_points. Empty when
 /// the rule does not hold. Thread-safe.
 std::string policy_cost_hint(int episode, double seconds, double previous_seconds,
                              long transitions, long variance_points, long max_evaluations,
