@@ -16,8 +16,8 @@ import tempfile
 import unittest
 
 RESULTS = None  # set from the command line
-SCRIPTS = ["check_manifest.py", "draw_figures.py", "speeds.py", "summarize_archives.py",
-           "summarize_campaign.py", "swing_ups.py"]
+SCRIPTS = ["check_manifest.py", "draw_figures.py", "realaigym_swingup_figure.py", "speeds.py",
+           "summarize_archives.py", "summarize_campaign.py", "swing_ups.py"]
 
 
 def run(script, *args):
@@ -56,7 +56,9 @@ class Help(unittest.TestCase):
                              ("swing_ups.py", ["x.csv", "--by", "eight"]),
                              ("speeds.py", ["x.csv", "--episodes", "4,eight"]),
                              ("summarize_campaign.py", ["only-one-argument"]),
-                             ("check_manifest.py", ["a", "b"])]:
+                             ("check_manifest.py", ["a", "b"]),
+                             ("realaigym_swingup_figure.py", ["run", "--seconds", "eight",
+                                                              "--output", "x.png"])]:
             code, _, err = run(script, *args)
             self.assertEqual(code, 2, (script, args))
             self.assertIn("error:", err, (script, args))
@@ -156,6 +158,45 @@ class Speeds(unittest.TestCase):
         self.assertEqual(float(median), 0.3)
         self.assertTrue(0.1 <= lo < 0.3 < hi <= 0.5, cell)
         self.assertEqual(table_row(out, ["gp_mi", "leg5", "5", "0.000* 0.500"])[4], "0")
+
+
+class RealAIGymSwingupFigure(unittest.TestCase):
+    """realaigym_swingup_figure.py draws the episode with the highest realai_score; a run without
+    that column or an episode without a needed column is an error that names it."""
+
+    @staticmethod
+    def make_run(d, scores, real_columns=("t", "q1", "q2", "qd1", "qd2", "tau1", "reward")):
+        write_summary(os.path.join(d, "episodes.csv"), ["episode", "real_return", "realai_score"],
+                      [{"episode": k + 1, "real_return": 1, "realai_score": s}
+                       for k, s in enumerate(scores)])
+        for k in range(len(scores)):
+            folder = os.path.join(d, "episodes", f"{k + 1:03d}")
+            os.makedirs(folder)
+            rows = [{c: (0.02 * i if c == "t" else 0.1 * i) for c in real_columns} for i in range(5)]
+            if "tau1" in real_columns:
+                rows[-1]["tau1"] = ""  # the last state has no action
+            write_summary(os.path.join(folder, "real.csv"), list(real_columns), rows)
+
+    def test_draws_the_best_scored_episode(self):
+        with tempfile.TemporaryDirectory() as d:
+            self.make_run(d, [0.0, 0.3, 0.2])
+            png = os.path.join(d, "f.png")
+            code, out, err = run("realaigym_swingup_figure.py", d, "--output", png)
+            self.assertIn("episode 2 of", out)
+            if code == 3:
+                self.skipTest("this python3 has no matplotlib")
+            self.assertEqual(code, 0, err)
+            with open(png, "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+
+    def test_a_missing_column_is_named(self):
+        with tempfile.TemporaryDirectory() as d:
+            self.make_run(d, [0.1], real_columns=("t", "q1", "q2", "qd1", "qd2"))
+            code, _, err = run("realaigym_swingup_figure.py", d, "--output",
+                               os.path.join(d, "f.png"))
+            self.assertNotEqual(code, 0)
+            self.assertIn("no column tau1", err)
+            self.assertNotIn("Traceback", err)
 
 
 if __name__ == "__main__":
