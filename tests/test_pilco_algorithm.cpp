@@ -394,6 +394,78 @@ TEST(PilcoExperiment, ATaskWithoutAPilcoDescriptionGetsAClearConfigError) {
   }
 }
 
+namespace {
+/// The pendubot's swing-up with a torque cost (Task::action_reward = -0.01 |u|^2).
+class TorqueCostTask final : public drops::rollout::Task {
+ public:
+  explicit TorqueCostTask(std::shared_ptr<const drops::rollout::Task> t) : t_(std::move(t)) {}
+  std::string name() const override { return "torquecost"; }
+  int state_dim() const override { return t_->state_dim(); }
+  int action_dim() const override { return t_->action_dim(); }
+  int observation_dim() const override { return t_->observation_dim(); }
+  int horizon() const override { return t_->horizon(); }
+  double dt() const override { return t_->dt(); }
+  drops::VectorXd initial_state() const override { return t_->initial_state(); }
+  void observe(const drops::VectorXd& x, Eigen::Ref<drops::VectorXd> o) const override {
+    t_->observe(x, o);
+  }
+  double reward(const drops::VectorXd& x) const override { return t_->reward(x); }
+  double action_reward(const drops::VectorXd& u) const override { return -0.01 * u.squaredNorm(); }
+  bool has_action_reward() const override { return true; }
+  bool solved(const drops::rollout::Trajectory& tr) const override { return t_->solved(tr); }
+
+ private:
+  std::shared_ptr<const drops::rollout::Task> t_;
+};
+
+/// The built-in pendubot task (its keys, its PILCO description) with TorqueCostTask as the task.
+class TorqueCostPlugin final : public drops::experiment::TaskPlugin {
+ public:
+  explicit TorqueCostPlugin(const drops::experiment::TaskPlugin& pendubot) : p_(pendubot) {}
+  std::string name() const override { return "torquecost"; }
+  std::string description() const override { return "the pendubot with a torque cost"; }
+  std::vector<drops::experiment::KeySpec> keys() const override { return p_.keys(); }
+  std::map<std::string, std::string> shared_defaults() const override {
+    return p_.shared_defaults();
+  }
+  drops::experiment::TaskSetup make(const drops::experiment::Settings& s) const override {
+    drops::experiment::TaskSetup setup = p_.make(s);
+    setup.task = std::make_shared<TorqueCostTask>(setup.task);
+    return setup;
+  }
+  std::string prior_label(const drops::experiment::Settings& s) const override {
+    return p_.prior_label(s);
+  }
+  drops::experiment::ReportInfo report_info(const drops::experiment::Settings& s) const override {
+    return p_.report_info(s);
+  }
+
+ private:
+  const drops::experiment::TaskPlugin& p_;
+};
+}  // namespace
+
+TEST(PilcoExperiment, ATaskThatRewardsActionsIsRefusedByNameOfTheReason) {
+  const auto& pendubot = drops::fixtures::registry().task("pendubot");
+  drops::experiment::Registry reg;
+  drops::experiment::register_builtin_algorithms(reg);
+  reg.add_task(std::make_unique<TorqueCostPlugin>(pendubot));
+  for (const char* a : {"pilco", "pilco_prior"}) {
+    const auto s = drops::experiment::load_settings(
+        reg, "", {"task=torquecost", std::string("algorithm=") + a});
+    try {
+      drops::experiment::make_experiment(reg, s);
+      FAIL() << a;
+    } catch (const drops::ConfigError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("rewards actions too"), std::string::npos) << m;
+    }
+  }
+  // Black-DROPS takes it.
+  EXPECT_NO_THROW(drops::experiment::make_experiment(
+      reg, drops::experiment::load_settings(reg, "", {"task=torquecost"})));
+}
+
 TEST(PilcoExperiment, ARunDirectoryKeepsTheSimulationPhaseAndReopensAtZeroEpisodes) {
   // PILCO with priors saves its state after the simulation phase, before any real episode
   // (episodes_done = 0): the run directory records the phase and --resume accepts that state.

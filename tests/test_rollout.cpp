@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 
+#include "drops/control/balance.hpp"
 #include "drops/core/parallel.hpp"
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
@@ -246,4 +247,72 @@ TEST(Rollout, AnAbsorbingStateEndsTheRolloutWithTheSameReturnAndFewerPredictions
   EXPECT_EQ(m2.rows.load(), 3 * 3);
   EXPECT_EQ(s1.absorbed, 0);
   EXPECT_EQ(s2.absorbed, 3);
+}
+
+namespace {
+/// The pendubot's swing-up with a torque cost: action_reward(u) = -w |u|^2.
+class TorqueCostTask final : public rollout::Task {
+ public:
+  TorqueCostTask(std::shared_ptr<const rollout::Task> task, double w) : task_(std::move(task)), w_(w) {}
+  std::string name() const override { return task_->name(); }
+  int state_dim() const override { return task_->state_dim(); }
+  int action_dim() const override { return task_->action_dim(); }
+  int observation_dim() const override { return task_->observation_dim(); }
+  int horizon() const override { return task_->horizon(); }
+  double dt() const override { return task_->dt(); }
+  VectorXd initial_state() const override { return task_->initial_state(); }
+  void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override { task_->observe(x, obs); }
+  double reward(const VectorXd& x) const override { return task_->reward(x); }
+  double action_reward(const VectorXd& u) const override { return -w_ * u.squaredNorm(); }
+  bool has_action_reward() const override { return true; }
+  bool solved(const rollout::Trajectory& t) const override { return task_->solved(t); }
+
+ private:
+  std::shared_ptr<const rollout::Task> task_;
+  double w_;
+};
+}  // namespace
+
+TEST(Rollout, AnActionRewardIsAddedToEachStepOfEpisodesAndOfTheModelsRollouts) {
+  Fixture f;
+  const double w = 0.01;
+  const TorqueCostTask costly(f.task, w);
+  // On the real system: the same states and actions, each step's reward lowered by w u_t^2.
+  pendubot::PendubotSystem real(pendubot::Params{});
+  Rng r1(5), r2(5);
+  f.pol->set_params(f.thetas[0]);
+  const auto plain = rollout::run_episode(*f.task, real, *f.pol, r1);
+  const auto with_cost = rollout::run_episode(costly, real, *f.pol, r2);
+  ASSERT_EQ(plain.states, with_cost.states);
+  double cost = 0;
+  for (int t = 0; t < f.task->horizon(); ++t) {
+    const double u2 = plain.actions.row(t).squaredNorm();
+    EXPECT_NEAR(with_cost.rewards[t], plain.rewards[t] - w * u2, 1e-12) << t;
+    cost += w * u2;
+  }
+  ASSERT_GT(cost, 1e-3);  // the policy does act
+  // The catch-and-balance wrapper keeps it.
+  const control::BalanceTask balanced(std::make_shared<TorqueCostTask>(f.task, w));
+  EXPECT_TRUE(balanced.has_action_reward());
+  EXPECT_DOUBLE_EQ(balanced.action_reward(VectorXd::Constant(1, 3.0)), -9 * w);
+  // On the model: the batched evaluator (lanes leaving the batch included) equals run_episode on
+  // the model system, and differs from the plain task's returns by the rollouts' action costs.
+  rollout::RolloutOptions o;
+  o.batch = 4;
+  VectorXd returns, plain_returns;
+  rollout::evaluate_policies(costly, *f.model, *f.pol, f.thetas, f.seeds, o, returns);
+  rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, plain_returns);
+  rollout::ModelSystem system(*f.model, o);
+  for (std::size_t k = 0; k < f.thetas.size(); ++k) {
+    auto p = f.pol->clone();
+    p->set_params(f.thetas[k]);
+    Rng rng(derive_seed(f.seeds[k], {0}));
+    const auto tr = rollout::run_episode(costly, system, *p, rng);
+    const auto i = static_cast<Eigen::Index>(k);
+    EXPECT_NEAR(tr.total_return(), returns[i], 1e-6) << k;
+    const Eigen::Index steps = tr.nonfinite_step >= 0 ? tr.nonfinite_step : tr.actions.rows();
+    const double rollout_cost = w * tr.actions.topRows(steps).squaredNorm();
+    EXPECT_GT(rollout_cost, 0) << k;
+    EXPECT_NEAR(plain_returns[i] - returns[i], rollout_cost, 1e-6) << k;
+  }
 }

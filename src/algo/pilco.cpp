@@ -56,6 +56,8 @@ class RawStateTask final : public rollout::Task {
   VectorXd initial_state() const override { return task_.initial_state(); }
   void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override { obs = x; }
   double reward(const VectorXd& x) const override { return task_.reward(x); }
+  double action_reward(const VectorXd& u) const override { return task_.action_reward(u); }
+  bool has_action_reward() const override { return task_.has_action_reward(); }
   bool solved(const rollout::Trajectory& t) const override { return task_.solved(t); }
   bool absorbing(const VectorXd& x) const override { return task_.absorbing(x); }
 

@@ -297,6 +297,11 @@ class PilcoPlugin final : public AlgorithmPlugin {
                         "the GP, the cost); choose another algorithm");
     if (with_prior_ && !setup.prior)
       throw ConfigError(head + "task '" + s.at("task") + "' has no simulator prior; use pilco");
+    if (setup.task && setup.task->has_action_reward())
+      throw ConfigError(head + "task '" + s.at("task") +
+                        "' rewards actions too (Task::action_reward, e.g. a torque cost), which "
+                        "PILCO's expected cost, a function of the state, would leave out; remove "
+                        "the action reward or choose another algorithm");
     const algo::PilcoOptions o = pilco_options(s, with_prior_);
     if (o.cost_width == 0.0 && !(task_model->reward_width > 0))
       throw ConfigError("config key 'pilco.cost_width' is empty but task '" + s.at("task") +

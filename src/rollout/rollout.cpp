@@ -34,6 +34,7 @@ Trajectory run_episode(const Task& task, const System& system, const policy::Pol
   const std::unique_ptr<EpisodeSession> session = system.begin_episode(x);
   if (!session) throw InvalidArgument("run_episode: System::begin_episode returned null");
   const double dt = task.dt();
+  const bool action_reward = task.has_action_reward();
   bool alive = true;
   for (int t = 0; t < H; ++t) {
     if (alive) {
@@ -48,6 +49,7 @@ Trajectory run_episode(const Task& task, const System& system, const policy::Pol
       } else {
         x = std::move(next);
         tr.rewards[t] = task.reward(x);
+        if (action_reward) tr.rewards[t] += task.action_reward(u);
       }
       tr.actions.row(t) = u.transpose();
     }
@@ -117,6 +119,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
     for (Eigen::Index b = 0; b < n; ++b) running[static_cast<std::size_t>(b)] = b;
     VectorXd x(E), obs(O), u(U);
     const double dt = task.dt();
+    const bool action_reward = task.has_action_reward();
     for (int t = 0; t < H && !running.empty(); ++t) {
       const auto m = static_cast<Eigen::Index>(running.size());
       const bool all = m == n;
@@ -146,8 +149,9 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       }
       // The next states of the lanes (in order, so each lane's draws are its own), then the
       // rewards of the finite ones in one call.
-      std::vector<Eigen::Index> finite;
+      std::vector<Eigen::Index> finite, finite_row;  // lane, and its row of Uc
       finite.reserve(running.size());
+      finite_row.reserve(running.size());
       Xn.resize(m, E);
       for (Eigen::Index j = 0; j < m; ++j) {
         const Eigen::Index b = running[static_cast<std::size_t>(j)];
@@ -164,6 +168,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
         X.row(b) = x.transpose();
         Xn.row(static_cast<Eigen::Index>(finite.size())) = x.transpose();
         finite.push_back(b);
+        finite_row.push_back(j);
       }
       Xn.conservativeResize(static_cast<Eigen::Index>(finite.size()), E);
       if (!finite.empty()) task.reward_batch(Xn, rewards);
@@ -175,6 +180,10 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
         const double r = rewards[static_cast<Eigen::Index>(j)];
         double& total = lane_return[begin + static_cast<std::size_t>(b)];
         total += r;
+        if (action_reward) {
+          u = Uc.row(finite_row[j]).transpose();
+          total += task.action_reward(u);
+        }
         if (task.absorbing(x)) {
           total += r * (H - 1 - t);  // the state and its reward repeat to the end
           ++chunk_absorbed[c];

@@ -84,6 +84,8 @@ class BalanceTask final : public Task {
   void observe_batch(const MatrixXd& X, MatrixXd& obs) const override;
   double reward(const VectorXd& x) const override { return task_->reward(x); }
   void reward_batch(const MatrixXd& X, VectorXd& r) const override { task_->reward_batch(X, r); }
+  double action_reward(const VectorXd& u) const override { return task_->action_reward(u); }
+  bool has_action_reward() const override { return task_->has_action_reward(); }
   bool solved(const Trajectory& trajectory) const override { return task_->solved(trajectory); }
   bool absorbing(const VectorXd& x) const override { return task_->absorbing(x); }
   std::optional<Reflection> reflection() const override { return task_->reflection(); }

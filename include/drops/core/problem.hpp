@@ -105,6 +105,17 @@ class Task {
       r[b] = reward(x);
     }
   }
+  /// Reward for applying action u (dim U) over one control period, added to the reward of the
+  /// state it leads to: step t earns reward(x_{t+1}) + action_reward(u_t) (e.g. -w |u|^2 for a
+  /// torque cost). A rollout stopped early (absorbing or nonfinite state) earns none for the
+  /// steps it does not take. Default: 0, with has_action_reward() false. Thread-safe.
+  virtual double action_reward(const VectorXd& u) const {
+    (void)u;
+    return 0.0;
+  }
+  /// Whether action_reward() can be nonzero. Algorithms whose cost is a function of the state
+  /// alone (PILCO's analytic expected cost) refuse a task that has one. Default: false.
+  virtual bool has_action_reward() const { return false; }
   /// Whether an episode solved the task (task-specific criterion).
   virtual bool solved(const Trajectory& trajectory) const = 0;
   /// Whether x (dim E) is absorbing: a state the system does not leave and whose reward every

@@ -14,7 +14,8 @@ namespace drops::rollout {
 
 /// Runs one episode of task.horizon() steps from task.initial_state() on `system` with `policy`,
 /// through one session s = system.begin_episode(x_0) (the stateless default for model systems):
-/// u_t = pi(observe(x_t), t * dt), x_{t+1} = s.step(u_t), r_t = reward(x_{t+1}).
+/// u_t = pi(observe(x_t), t * dt), x_{t+1} = s.step(u_t), r_t = reward(x_{t+1}) +
+/// action_reward(u_t) (Task::action_reward, when the task has one).
 /// A non-finite state ends the episode early (Trajectory::nonfinite_step): the remaining states
 /// repeat the last finite one and earn reward 0, and *nonfinite_steps (if given) is incremented.
 /// Thread-safe if system is.
@@ -80,7 +81,8 @@ struct RolloutStats {
 /// = S > 0, rollout r runs under sample r mod S: predict_batch_sampled). Rollouts are batched
 /// (options.batch) and run in parallel; the result is independent of the thread count. Non-finite predictions stop that rollout (remaining
 /// rewards 0) and are counted in *stats; a rollout that reaches an absorbing state
-/// (Task::absorbing) stops there and gets that state's reward for every remaining step. Stopped
+/// (Task::absorbing) stops there and gets that state's reward (not an action's) for every
+/// remaining step. Each step's reward includes Task::action_reward of its action. Stopped
 /// rollouts leave the batch: the model predicts the running ones only. returns: resized to
 /// thetas.size(). rollout_returns (when not null): resized to thetas.size() x options.rollouts,
 /// row k holding each rollout's return of thetas[k] in rollout order (what `returns` combines).
