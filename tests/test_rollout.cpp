@@ -52,6 +52,18 @@ struct Fixture {
 };
 }  // namespace
 
+namespace {
+/// run_episode of the fixture's policy k on the model system, with rollout 0's random stream:
+/// what evaluate_policies computes for thetas[k] with one rollout.
+rollout::Trajectory model_episode(const Fixture& f, const rollout::Task& task,
+                                  const rollout::ModelSystem& system, std::size_t k) {
+  auto p = f.pol->clone();
+  p->set_params(f.thetas[k]);
+  Rng rng(derive_seed(f.seeds[k], {0}));
+  return rollout::run_episode(task, system, *p, rng);
+}
+}  // namespace
+
 TEST(Rollout, BatchedEvaluationEqualsRunEpisodeOnTheModelSystem) {
   Fixture f;
   rollout::RolloutOptions o;
@@ -60,10 +72,7 @@ TEST(Rollout, BatchedEvaluationEqualsRunEpisodeOnTheModelSystem) {
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, returns);
   rollout::ModelSystem system(*f.model, o);
   for (std::size_t k = 0; k < f.thetas.size(); ++k) {
-    auto p = f.pol->clone();
-    p->set_params(f.thetas[k]);
-    Rng rng(derive_seed(f.seeds[k], {0}));
-    const auto tr = rollout::run_episode(*f.task, system, *p, rng);
+    const auto tr = model_episode(f, *f.task, system, k);
     EXPECT_NEAR(tr.total_return(), returns[static_cast<Eigen::Index>(k)], 1e-6) << k;
   }
 }
@@ -304,10 +313,7 @@ TEST(Rollout, AnActionRewardIsAddedToEachStepOfEpisodesAndOfTheModelsRollouts) {
   rollout::evaluate_policies(*f.task, *f.model, *f.pol, f.thetas, f.seeds, o, plain_returns);
   rollout::ModelSystem system(*f.model, o);
   for (std::size_t k = 0; k < f.thetas.size(); ++k) {
-    auto p = f.pol->clone();
-    p->set_params(f.thetas[k]);
-    Rng rng(derive_seed(f.seeds[k], {0}));
-    const auto tr = rollout::run_episode(costly, system, *p, rng);
+    const auto tr = model_episode(f, costly, system, k);
     const auto i = static_cast<Eigen::Index>(k);
     EXPECT_NEAR(tr.total_return(), returns[i], 1e-6) << k;
     const Eigen::Index steps = tr.nonfinite_step >= 0 ? tr.nonfinite_step : tr.actions.rows();
