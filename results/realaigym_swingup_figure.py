@@ -44,6 +44,8 @@ def read_columns(path, names):
 def best_episode(run_dir):
     """The episode (its number) with the highest realai_score in RUN_DIR/episodes.csv, and that score."""
     path = os.path.join(run_dir, "episodes.csv")
+    if not os.path.exists(path):
+        sys.exit(f"{path}: no such file (RUN_DIR must be a drops run directory)")
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     if not rows or "realai_score" not in rows[0]:

@@ -18,6 +18,7 @@
 #include "drops/experiment/run_directory.hpp"
 #include "fixtures.hpp"
 #include "pendulum_task.hpp"
+#include "torque_cost_task.hpp"
 
 namespace {
 
@@ -395,29 +396,6 @@ TEST(PilcoExperiment, ATaskWithoutAPilcoDescriptionGetsAClearConfigError) {
 }
 
 namespace {
-/// The pendubot's swing-up with a torque cost (Task::action_reward = -0.01 |u|^2).
-class TorqueCostTask final : public drops::rollout::Task {
- public:
-  explicit TorqueCostTask(std::shared_ptr<const drops::rollout::Task> t) : t_(std::move(t)) {}
-  std::string name() const override { return "torquecost"; }
-  int state_dim() const override { return t_->state_dim(); }
-  int action_dim() const override { return t_->action_dim(); }
-  int observation_dim() const override { return t_->observation_dim(); }
-  int horizon() const override { return t_->horizon(); }
-  double dt() const override { return t_->dt(); }
-  drops::VectorXd initial_state() const override { return t_->initial_state(); }
-  void observe(const drops::VectorXd& x, Eigen::Ref<drops::VectorXd> o) const override {
-    t_->observe(x, o);
-  }
-  double reward(const drops::VectorXd& x) const override { return t_->reward(x); }
-  double action_reward(const drops::VectorXd& u) const override { return -0.01 * u.squaredNorm(); }
-  bool has_action_reward() const override { return true; }
-  bool solved(const drops::rollout::Trajectory& tr) const override { return t_->solved(tr); }
-
- private:
-  std::shared_ptr<const drops::rollout::Task> t_;
-};
-
 /// The built-in pendubot task (its keys, its PILCO description) with TorqueCostTask as the task.
 class TorqueCostPlugin final : public drops::experiment::TaskPlugin {
  public:
@@ -430,7 +408,7 @@ class TorqueCostPlugin final : public drops::experiment::TaskPlugin {
   }
   drops::experiment::TaskSetup make(const drops::experiment::Settings& s) const override {
     drops::experiment::TaskSetup setup = p_.make(s);
-    setup.task = std::make_shared<TorqueCostTask>(setup.task);
+    setup.task = std::make_shared<drops::testing::TorqueCostTask>(setup.task, 0.01, "torquecost");
     return setup;
   }
   std::string prior_label(const drops::experiment::Settings& s) const override {

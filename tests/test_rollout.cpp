@@ -11,6 +11,7 @@
 #include "drops/model/dynamics_model.hpp"
 #include "drops/rollout/rollout.hpp"
 #include "drops/pendubot/pendubot.hpp"
+#include "torque_cost_task.hpp"
 
 using namespace drops;
 
@@ -258,29 +259,7 @@ TEST(Rollout, AnAbsorbingStateEndsTheRolloutWithTheSameReturnAndFewerPredictions
   EXPECT_EQ(s2.absorbed, 3);
 }
 
-namespace {
-/// The pendubot's swing-up with a torque cost: action_reward(u) = -w |u|^2.
-class TorqueCostTask final : public rollout::Task {
- public:
-  TorqueCostTask(std::shared_ptr<const rollout::Task> task, double w) : task_(std::move(task)), w_(w) {}
-  std::string name() const override { return task_->name(); }
-  int state_dim() const override { return task_->state_dim(); }
-  int action_dim() const override { return task_->action_dim(); }
-  int observation_dim() const override { return task_->observation_dim(); }
-  int horizon() const override { return task_->horizon(); }
-  double dt() const override { return task_->dt(); }
-  VectorXd initial_state() const override { return task_->initial_state(); }
-  void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override { task_->observe(x, obs); }
-  double reward(const VectorXd& x) const override { return task_->reward(x); }
-  double action_reward(const VectorXd& u) const override { return -w_ * u.squaredNorm(); }
-  bool has_action_reward() const override { return true; }
-  bool solved(const rollout::Trajectory& t) const override { return task_->solved(t); }
-
- private:
-  std::shared_ptr<const rollout::Task> task_;
-  double w_;
-};
-}  // namespace
+using drops::testing::TorqueCostTask;
 
 TEST(Rollout, AnActionRewardIsAddedToEachStepOfEpisodesAndOfTheModelsRollouts) {
   Fixture f;

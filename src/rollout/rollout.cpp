@@ -117,6 +117,12 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
     // The running lanes, in lane order; while every lane runs, the batch is X itself.
     std::vector<Eigen::Index> running(static_cast<std::size_t>(n));
     for (Eigen::Index b = 0; b < n; ++b) running[static_cast<std::size_t>(b)] = b;
+    // The finite lanes of a step and their rows of Uc, and the lanes still running after it:
+    // cleared each step, allocated once per chunk.
+    std::vector<Eigen::Index> finite, finite_row, still;
+    finite.reserve(running.size());
+    finite_row.reserve(running.size());
+    still.reserve(running.size());
     VectorXd x(E), obs(O), u(U);
     const double dt = task.dt();
     const bool action_reward = task.has_action_reward();
@@ -149,9 +155,8 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       }
       // The next states of the lanes (in order, so each lane's draws are its own), then the
       // rewards of the finite ones in one call.
-      std::vector<Eigen::Index> finite, finite_row;  // lane, and its row of Uc
-      finite.reserve(running.size());
-      finite_row.reserve(running.size());
+      finite.clear();
+      finite_row.clear();
       Xn.resize(m, E);
       for (Eigen::Index j = 0; j < m; ++j) {
         const Eigen::Index b = running[static_cast<std::size_t>(j)];
@@ -172,8 +177,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
       }
       Xn.conservativeResize(static_cast<Eigen::Index>(finite.size()), E);
       if (!finite.empty()) task.reward_batch(Xn, rewards);
-      std::vector<Eigen::Index> still;
-      still.reserve(running.size());
+      still.clear();
       for (std::size_t j = 0; j < finite.size(); ++j) {
         const Eigen::Index b = finite[j];
         x = X.row(b).transpose();
@@ -191,7 +195,7 @@ void evaluate_policies(const Task& task, const model::DynamicsModel& model,
         }
         still.push_back(b);
       }
-      running = std::move(still);
+      running.swap(still);
     }
   });
   if (rollout_returns) {

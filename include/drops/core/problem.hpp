@@ -105,10 +105,12 @@ class Task {
       r[b] = reward(x);
     }
   }
-  /// Reward for applying action u (dim U) over one control period, added to the reward of the
-  /// state it leads to: step t earns reward(x_{t+1}) + action_reward(u_t) (e.g. -w |u|^2 for a
-  /// torque cost). A rollout stopped early (absorbing or nonfinite state) earns none for the
-  /// steps it does not take. Default: 0, with has_action_reward() false. Thread-safe.
+  /// Reward for applying action u (dim U, the caller's duty: not checked) over one control
+  /// period, added to the reward of the state it leads to: step t earns reward(x_{t+1}) +
+  /// action_reward(u_t), in the reward's units (e.g. -w |u|^2 for a torque cost). The paper's
+  /// reward is r(x) alone; this is the usual r(x, u) of reinforcement learning. A rollout stopped
+  /// early (absorbing or nonfinite state) earns none for the steps it does not take. Default: 0,
+  /// with has_action_reward() false. Throws nothing by default. Thread-safe.
   virtual double action_reward(const VectorXd& u) const {
     (void)u;
     return 0.0;

@@ -54,8 +54,8 @@ struct TaskOptions {
 /// u = [tau1] (N m), start at rest hanging down (x = 0); observation [qd1, qd2, cos q1, sin q1,
 /// cos q2, sin q2] (dim 6); reward exp(-d^2 / (2 sigma^2)) with d the distance of the end of link 2
 /// from upright (0, l1 + l2) (m), and -w tau1^2 dt per step for the torque (w =
-/// TaskOptions::torque_weight, Task::action_reward); solved: the leaderboard's swing-up rule (height rule) on the
-/// control-period states (the exact rule at 2 ms is the metric swingup_success). Immutable,
+/// TaskOptions::torque_weight, Task::action_reward); solved: the leaderboard's swing-up rule
+/// (height rule) on the control-period states (the exact rule at 2 ms is the metric swingup_success). Immutable,
 /// thread-safe.
 class SwingupTask final : public rollout::Task {
  public:
