@@ -61,14 +61,6 @@ const experiment::KeyTable<RealAIGymKeys>& key_table() {
         .range(1e-3, 10)
         .unit("m")
         .help("width sigma of the reward exp(-d^2 / (2 sigma^2)), d the tip's distance to upright");
-    k.add(
-         "realaigym.torque_weight", [=](auto& keys) -> auto& { return task(keys).torque_weight; })
-        .range(0, 1000)
-        .unit("1/(N^2 m^2 s)")
-        .help(
-            "weight w of the reward's torque term: each control step also earns -w tau1^2 dt, so "
-            "an episode's return falls by w times its torque cost, the integral of tau^2 dt (the "
-            "leaderboard's criterion, but for its last 2 ms); 0: none");
     k.add("realaigym.prior", &RealAIGymKeys::prior)
         .values({{"other-design", "other-design"}, {"actual", "actual"}})
         .help(

@@ -28,8 +28,6 @@ bool TaskOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(duration) && duration >= dt)) return fail("duration must be >= dt");
   if (!(std::isfinite(max_torque) && max_torque > 0)) return fail("max_torque must be > 0");
   if (!(std::isfinite(reward_sigma) && reward_sigma > 0)) return fail("reward_sigma must be > 0");
-  if (!(std::isfinite(torque_weight) && torque_weight >= 0))
-    return fail("torque_weight must be >= 0");
   return true;
 }
 
@@ -58,10 +56,6 @@ double SwingupTask::reward(const VectorXd& x) const {
   const double d2 = tip[0] * tip[0] + (tip[1] - l1 - l2) * (tip[1] - l1 - l2);
   if (!std::isfinite(d2)) return 0.0;  // a diverged model state earns nothing
   return std::exp(-0.5 * d2 / (options_.reward_sigma * options_.reward_sigma));
-}
-
-double SwingupTask::action_reward(const VectorXd& u) const {
-  return -options_.torque_weight * u[0] * u[0] * options_.dt;
 }
 
 bool SwingupTask::solved(const rollout::Trajectory& trajectory) const {

@@ -145,56 +145,6 @@ TEST(RealAIGymTask, ThePluginBuildsASetupWithTheLeaderboardsMetrics) {
   EXPECT_EQ(m[8], 0.0);  // realai_score
 }
 
-// realaigym.torque_weight w: each control step earns -w tau1^2 dt besides its state's reward, so
-// an episode's action rewards sum to -w times the leaderboard's torque cost of that episode (the
-// metric tau_cost, computed on the 2 ms replay) with the episode's last 2 ms step added. Default 0: no action reward. A negative weight
-// is refused.
-TEST(RealAIGymTask, TheTorqueWeightCostsEachEpisodeWTimesItsTorqueCost) {
-  drops::experiment::Registry registry;
-  drops::experiment::register_builtin_algorithms(registry);
-  rg::register_task(registry);
-  const drops::experiment::TaskSetup plain = registry.task("realaigym_pendubot")
-      .make(drops::experiment::load_settings(registry, "", {"task=realaigym_pendubot"}));
-  EXPECT_FALSE(plain.task->has_action_reward());
-  EXPECT_EQ(plain.task->action_reward(VectorXd::Constant(1, 2.0)), 0.0);
-  const double w = 0.5;
-  const drops::experiment::TaskSetup s = registry.task("realaigym_pendubot")
-      .make(drops::experiment::load_settings(
-          registry, "", {"task=realaigym_pendubot", "realaigym.duration=1",
-                         "realaigym.torque_weight=0.5"}));
-  ASSERT_TRUE(s.task->has_action_reward());
-  EXPECT_NEAR(s.task->action_reward(VectorXd::Constant(1, 2.0)), -w * 4 * 0.02, 1e-15);
-  // An episode under torques within the limit (no clipping), its metrics and its action rewards.
-  drops::algo::EpisodeRecord record;
-  const int h = s.task->horizon();
-  record.real.states = MatrixXd(h + 1, 4);
-  record.real.actions = MatrixXd(h, 1);
-  drops::Rng rng(1);
-  VectorXd x = s.task->initial_state();
-  record.real.states.row(0) = x.transpose();
-  double action_rewards = 0;
-  for (int t = 0; t < h; ++t) {
-    const VectorXd u = VectorXd::Constant(1, 2.0 * std::sin(0.9 * t) - 0.05 * x[2]);
-    x = s.real->step(x, u, rng);
-    record.real.actions.row(t) = u.transpose();
-    record.real.states.row(t + 1) = x.transpose();
-    action_rewards += s.task->action_reward(u);
-  }
-  const std::vector<double> m = s.metrics(record);
-  ASSERT_EQ(s.metric_names[5], "tau_cost");
-  ASSERT_GT(m[5], 0.5);
-  // The leaderboard's sum leaves out the last 2 ms row (its torque is the one applied after it).
-  const double last = record.real.actions(h - 1, 0);
-  EXPECT_NEAR(action_rewards, -w * (m[5] + last * last * 0.002), 1e-9 * m[5]);
-  EXPECT_GT(std::abs(action_rewards + w * m[5]), 1e-6);  // that row does count here
-  EXPECT_THROW(drops::experiment::load_settings(
-                   registry, "", {"task=realaigym_pendubot", "realaigym.torque_weight=-1"}),
-               drops::ConfigError);
-  rg::TaskOptions o;
-  o.torque_weight = -1;
-  EXPECT_FALSE(o.IsValid(nullptr));
-}
-
 // The declared goal (upright at rest, x* = [pi, 0, 0, 0]) is an equilibrium of the plant at zero
 // torque, and the LQR of the plant's own dynamics linearised there (policy.balance.mode lqr on a
 // perfect model) catches a small offset within the torque limit.

@@ -37,14 +37,8 @@ struct TaskOptions {
   double duration = 10.0;      ///< episode length, s (the leaderboards': 10 s)
   double max_torque = 6.0;     ///< the policy's |u| bound on joint 1, N m (<= the plant's 6)
   double reward_sigma = 0.25;  ///< width of the reward exp(-d^2 / (2 sigma^2)), m
-  /// Weight w of the reward's torque term, 1/(N^2 m^2 s): each control step earns
-  /// -w tau1^2 dt besides its state's reward, so an episode's total is -w times its torque cost,
-  /// the integral of tau^2 dt of the held torques (the leaderboard's criterion leaves out the
-  /// last 2 ms of it). 0: no torque term.
-  double torque_weight = 0.0;
   /// True when 0 < sim_dt <= dt, dt is a whole number of sim_dt (to 1e-9), duration >= dt,
-  /// 0 < max_torque, 0 < reward_sigma and 0 <= torque_weight; otherwise false and the reason in
-  /// *why.
+  /// 0 < max_torque and 0 < reward_sigma; otherwise false and the reason in *why.
   bool IsValid(std::string* why) const;
   /// Plant steps per control period, round(dt / sim_dt).
   int substeps() const;
@@ -53,9 +47,8 @@ struct TaskOptions {
 /// The swing-up: x = [q1, q2, qd1, qd2] (the lab's coordinates, rad from hanging, q2 relative),
 /// u = [tau1] (N m), start at rest hanging down (x = 0); observation [qd1, qd2, cos q1, sin q1,
 /// cos q2, sin q2] (dim 6); reward exp(-d^2 / (2 sigma^2)) with d the distance of the end of link 2
-/// from upright (0, l1 + l2) (m), and -w tau1^2 dt per step for the torque (w =
-/// TaskOptions::torque_weight, Task::action_reward); solved: the leaderboard's swing-up rule
-/// (height rule) on the control-period states (the exact rule at 2 ms is the metric swingup_success). Immutable,
+/// from upright (0, l1 + l2) (m); solved: the leaderboard's swing-up rule (height rule) on the
+/// control-period states (the exact rule at 2 ms is the metric swingup_success). Immutable,
 /// thread-safe.
 class SwingupTask final : public rollout::Task {
  public:
@@ -70,9 +63,6 @@ class SwingupTask final : public rollout::Task {
   VectorXd initial_state() const override { return VectorXd::Zero(4); }
   void observe(const VectorXd& x, Eigen::Ref<VectorXd> obs) const override;
   double reward(const VectorXd& x) const override;
-  /// -w u[0]^2 dt (w = TaskOptions::torque_weight; u: dim 1, N m).
-  double action_reward(const VectorXd& u) const override;
-  bool has_action_reward() const override { return options_.torque_weight > 0; }
   bool solved(const rollout::Trajectory& trajectory) const override;
   /// The mirror about the vertical, x -> -x, u -> -u: the lab's equations of motion are odd in
   /// the angles, velocities and torques; the start (0) is its fixed point.
