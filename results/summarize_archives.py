@@ -40,6 +40,12 @@ COMMON = ["campaign", "run", "task", "algorithm", "variant", "prior", "damage", 
           "interaction_time_s", "real_return", "predicted_return", "solved"]
 PENDUBOT_COLUMNS = COMMON + ["phi_" + p for p in PENDUBOT_PHI]
 HEXAPOD_COLUMNS = COMMON + ["speed_m_s", "predicted_speed_m_s", "phi_prior"]
+# The RealAIGym pendubot's episode metrics: the leaderboard's criteria of each real episode
+# (docs/decisions/realaigym-scorer.md), then phi as episodes.csv writes it (space-separated).
+REALAIGYM_METRICS = ["swingup_success", "swingup_time_s", "energy_j", "max_tau_nm",
+                     "integrated_tau_nms", "tau_cost", "tau_smoothness_nm", "velocity_cost",
+                     "realai_score"]
+REALAIGYM_COLUMNS = COMMON + REALAIGYM_METRICS + ["phi"]
 CEILING_COLUMNS = ["campaign", "search", "task", "algorithm", "damage", "seed", "start", "sigma0",
                    "episodes", "status", "best_episode", "best_return", "best_speed_m_s",
                    "max_speed_m_s", "command", "start_theta", "best_theta"]
@@ -119,6 +125,10 @@ def episode_rows(archives, campaign, task):
                     raise SystemExit(f"{run_dir}: phi {e['phi']}")
                 for i, p in enumerate(PENDUBOT_PHI):
                     row["phi_" + p] = phi[i] if phi else ""
+            elif task == "realaigym_pendubot":
+                for m in REALAIGYM_METRICS:
+                    row[m] = cell(e[m])
+                row["phi"] = " ".join(phi)
             else:
                 row["speed_m_s"] = cell(e["walking_speed_m_s"])
                 row["predicted_speed_m_s"] = cell(e["predicted_speed_m_s"])

@@ -3,8 +3,9 @@
 
   summarize_campaign.py CAMPAIGN_DIR OUTPUT.csv
 
-One row per run and episode, with the columns of the task's summary (summaries/pendubot.csv or
-summaries/hexapod.csv; the campaign column is the campaign directory's name) and, for IT&E runs,
+One row per run and episode, with the columns of the task's summary (summaries/pendubot.csv,
+summaries/hexapod.csv, or for realaigym_pendubot the leaderboard's criteria of each episode and
+phi; the campaign column is the campaign directory's name) and, for IT&E runs,
 the archive each run adapted with: archive_evaluations (config.yaml's ite.evaluations, the prior
 episodes of the MAP-Elites run that built it, also when the run read it from the archive cache),
 archive_cells and archive_coverage (summary.json "archive"); when the runs recorded it, the
@@ -59,7 +60,11 @@ def main():
     with open(os.path.join(runs[0][1], "summary.json")) as f:
         task = json.load(f)["task"]
     rows = sa.episode_rows(parent or ".", campaign, task)
-    columns = sa.PENDUBOT_COLUMNS if task == "pendubot" else sa.HEXAPOD_COLUMNS
+    columns = {"pendubot": sa.PENDUBOT_COLUMNS, "hexapod": sa.HEXAPOD_COLUMNS,
+               "realaigym_pendubot": sa.REALAIGYM_COLUMNS}.get(task)
+    if columns is None:
+        raise SystemExit(f"{campaign_dir}: task {task}: no summary format (pendubot, hexapod, "
+                         "realaigym_pendubot)")
     archives = {}
     for name, run_dir in runs:
         with open(os.path.join(run_dir, "summary.json")) as f:

@@ -16,8 +16,9 @@ import tempfile
 import unittest
 
 RESULTS = None  # set from the command line
-SCRIPTS = ["check_manifest.py", "draw_figures.py", "realaigym_swingup_figure.py", "speeds.py",
-           "summarize_archives.py", "summarize_campaign.py", "swing_ups.py"]
+SCRIPTS = ["check_manifest.py", "draw_figures.py", "realaigym_swingup_figure.py",
+           "realaigym_table.py", "speeds.py", "summarize_archives.py", "summarize_campaign.py",
+           "swing_ups.py"]
 
 
 def run(script, *args):
@@ -196,6 +197,77 @@ class RealAIGymSwingupFigure(unittest.TestCase):
                                os.path.join(d, "f.png"))
             self.assertNotEqual(code, 0)
             self.assertIn("no column tau1", err)
+            self.assertNotIn("Traceback", err)
+
+
+class RealAIGymCampaign(unittest.TestCase):
+    """summarize_campaign.py keeps a realaigym_pendubot run's criteria and phi per episode;
+    realaigym_table.py finds each run's first swing-up by the leaderboard's rule and before 5 s,
+    the final score's median and drops' leaderboard row (the run with the lower median final
+    score), and refuses runs of different lengths."""
+
+    METRICS = ["swingup_success", "swingup_time_s", "energy_j", "max_tau_nm",
+               "integrated_tau_nms", "tau_cost", "tau_smoothness_nm", "velocity_cost",
+               "realai_score"]
+
+    def make_campaign(self, d, runs):
+        """runs: {seed: [(swingup_success, swingup_time_s, realai_score), ...]}."""
+        for seed, episodes in runs.items():
+            run_dir = os.path.join(d, "runs", f"seed{seed}")
+            os.makedirs(run_dir)
+            with open(os.path.join(run_dir, "summary.json"), "w") as f:
+                f.write('{"task": "realaigym_pendubot", "status": "complete", "episodes_planned": '
+                        f'{len(episodes)}, "algorithm": "black_drops", "model": "gp_mi", '
+                        f'"prior": "other-design", "seed": {seed}, "report": {{}}}}')
+            rows = []
+            for k, (ok, time, score) in enumerate(episodes):
+                row = {m: 1.5 for m in self.METRICS}
+                row.update(episode=k + 1, interaction_time_s=10.0 * (k + 1), real_return=100,
+                           predicted_return=90, solved=ok, phi="0.5 0.25",
+                           swingup_success=ok, swingup_time_s=time, realai_score=score,
+                           energy_j=10 * seed + k)
+                rows.append(row)
+            write_summary(os.path.join(run_dir, "episodes.csv"),
+                          ["episode", "interaction_time_s", "real_return", "predicted_return",
+                           "solved", "phi"] + self.METRICS, rows)
+
+    def test_summary_and_table(self):
+        with tempfile.TemporaryDirectory() as d:
+            camp = os.path.join(d, "rg")
+            # seed 2 passes the top in the last 0.1 s of episode 1 (the rule holds, not before 5 s)
+            self.make_campaign(camp, {1: [(0, 9.998, 0), (1, 0.7, 0.30), (1, 0.8, 0.25)],
+                                      2: [(1, 9.9, 0.01), (0, 9.998, 0), (1, 1.1, 0.20)],
+                                      3: [(0, 9.998, 0), (0, 9.998, 0), (0, 9.998, 0)]})
+            out_csv = os.path.join(d, "s.csv")
+            code, _, err = run("summarize_campaign.py", camp, out_csv)
+            self.assertEqual(code, 0, err)
+            with open(out_csv, newline="") as f:
+                rows = list(csv.DictReader(f))
+            self.assertEqual(len(rows), 9)
+            r = next(r for r in rows if r["run"] == "seed2" and r["episode"] == "3")
+            self.assertEqual((r["swingup_time_s"], r["realai_score"], r["phi"], r["energy_j"]),
+                             ("1.1", "0.2", "0.5 0.25", "22"))
+            code, out, err = run("realaigym_table.py", out_csv)
+            self.assertEqual(code, 0, err)
+            self.assertEqual(table_row(out, ["1"])[1:4], ["2 (20 s)", "2 (20 s)", "yes"])
+            self.assertEqual(table_row(out, ["2"])[1:4], ["1 (10 s)", "3 (30 s)", "yes"])
+            self.assertEqual(table_row(out, ["3"])[1:4], ["–", "–", "no"])
+            self.assertIn("median 0.200, quartiles 0.100–0.225, range 0.000–0.250", out)
+            self.assertIn("in 2 of 3 runs; some episode does in 2 of 3", out)
+            row = next(line for line in out.splitlines() if line.startswith("| drops"))
+            self.assertIn("final policy of seed 2", row)
+            self.assertIn("| 2/3 | 1.10 | 22.00 |", row)
+            self.assertTrue(row.rstrip().endswith("| 0.200 |"), row)
+
+    def test_runs_of_different_lengths_are_refused(self):
+        with tempfile.TemporaryDirectory() as d:
+            camp = os.path.join(d, "rg")
+            self.make_campaign(camp, {1: [(0, 9.998, 0)], 2: [(0, 9.998, 0), (1, 1.0, 0.3)]})
+            out_csv = os.path.join(d, "s.csv")
+            self.assertEqual(run("summarize_campaign.py", camp, out_csv)[0], 0)
+            code, _, err = run("realaigym_table.py", out_csv)
+            self.assertNotEqual(code, 0)
+            self.assertIn("different numbers of episodes", err)
             self.assertNotIn("Traceback", err)
 
 
