@@ -23,6 +23,7 @@
 #include "drops/experiment/config.hpp"
 #include "drops/experiment/registry.hpp"
 #include "drops/pendubot/plugin.hpp"
+#include "drops/realaigym/plugin.hpp"
 #ifdef DROPS_WITH_HEXAPOD
 #include "drops/hexapod/plugin.hpp"
 #endif
@@ -108,6 +109,7 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
   drops::experiment::Registry registry;
   drops::experiment::register_builtin_algorithms(registry);
   drops::pendubot::register_task(registry);
+  drops::realaigym::register_task(registry);
 #ifdef DROPS_WITH_HEXAPOD
   drops::hexapod::register_task(registry);
 #endif
@@ -164,6 +166,9 @@ TEST(EndToEnd, EveryShippedConfigFileRunsWithItsProgressLines) {
       std::ofstream(config) << drops::experiment::to_yaml(registry, runs.front().settings);
       // A hexapod episode is thousands of DART steps: a short horizon keeps the test small.
       if (runs.front().settings.at("task") == "hexapod") extra = " hexapod.horizon=20";
+      // The RealAIGym pendubot's 10 s episodes: 1 s keeps it small.
+      if (runs.front().settings.at("task") == "realaigym_pendubot")
+        extra = " realaigym.duration=1";
       // IT&E: a small archive, and the archive cache (a path relative to where the campaign runs)
       // under the test's directory.
       const std::string& algorithm = runs.front().settings.at("algorithm");
