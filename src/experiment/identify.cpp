@@ -685,8 +685,10 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     for (const auto& tr : r.data) {
       std::string line;
       auto add = [&](const VectorXd& v) {
-        for (Eigen::Index i = 0; i < v.size(); ++i)
-          line += (line.empty() ? "" : ",") + fmt::format("{:.17g}", v[i]);
+        for (Eigen::Index i = 0; i < v.size(); ++i) {
+          if (!line.empty()) line += ',';
+          line += fmt::format("{:.17g}", v[i]);
+        }
       };
       add(tr.x);
       add(tr.u);
@@ -710,7 +712,7 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
     t += "\n";
     for (Eigen::Index k = 0; k < seg.x.rows(); ++k) {
       t += num(seg.t0 + static_cast<double>(k) * s.dt);
-      for (Eigen::Index i = 0; i < seg.x.cols(); ++i) t += "," + fmt::format("{:.9g}", seg.x(k, i));
+      for (Eigen::Index i = 0; i < seg.x.cols(); ++i) t += fmt::format(",{:.9g}", seg.x(k, i));
       t += ",,";
       for (Eigen::Index i = 1; i < seg.x.cols(); ++i) t += ",";
       t += "\n";
@@ -722,8 +724,8 @@ std::vector<std::filesystem::path> write_identify_directory(const std::filesyste
       for (Eigen::Index k = 0; k < x.rows(); ++k) {
         t += num(seg.t0 + static_cast<double>(k0 + k) * s.dt);
         for (Eigen::Index i = 0; i < x.cols(); ++i) t += ",";
-        t += "," + std::to_string(k0);
-        for (Eigen::Index i = 0; i < x.cols(); ++i) t += "," + fmt::format("{:.9g}", x(k, i));
+        t += fmt::format(",{}", k0);
+        for (Eigen::Index i = 0; i < x.cols(); ++i) t += fmt::format(",{:.9g}", x(k, i));
         t += "\n";
       }
     }
