@@ -15,8 +15,9 @@ RUN_DIR       a `drops run task=realaigym_pendubot ...` directory (or a campaign
               states no license: its files are read, never copied into this tree)
 --seconds     the time axis' extent (default 10 s: the whole episode)
 
-Both trajectories start hanging at rest (q = 0) with the goal upright at q1 = pi, q2 = 0 (the
-lab's convention, which the task keeps). The dashed line of each angle panel marks the goal.
+Both trajectories start hanging at rest (q = 0) with the goal upright at q1 = pi or -pi (either
+way round), q2 = 0 (the lab's convention, which the task keeps). The dashed lines of the angle
+panels mark the goal.
 Needs matplotlib (Debian's python3-matplotlib; scripts/install-deps); exits 3 without it.
 """
 
@@ -54,6 +55,19 @@ def best_episode(run_dir):
     return int(best["episode"]), float(best["realai_score"])
 
 
+def episode_score(run_dir, episode):
+    """The realai_score of EPISODE in RUN_DIR/episodes.csv; None when the file, the column or the
+    episode is missing."""
+    path = os.path.join(run_dir, "episodes.csv")
+    if not os.path.exists(path):
+        return None
+    with open(path, newline="") as f:
+        for r in csv.DictReader(f):
+            if r.get("episode") == str(episode) and r.get("realai_score", "") != "":
+                return float(r["realai_score"])
+    return None
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -71,7 +85,9 @@ def main():
         label = f"{args.label} (episode {episode}, score {score:.3f})"
     else:
         episode = args.episode
-        label = f"{args.label} (episode {episode})"
+        score = episode_score(args.run_dir, episode)
+        label = (f"{args.label} (episode {episode}, score {score:.3f})" if score is not None
+                 else f"{args.label} (episode {episode})")
     real = os.path.join(args.run_dir, "episodes", f"{episode:03d}", "real.csv")
     if not os.path.exists(real):
         sys.exit(f"{real}: no such file (episodes are numbered from 1)")
@@ -88,7 +104,9 @@ def main():
         sys.exit(3)
 
     fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-    panels = [("q1", "pos_meas1", "q1 (rad)", math.pi), ("q2", "pos_meas2", "q2 (rad)", 0.0)]
+    # The goal: upright, reached either way round (q1 = pi or -pi), link 2 aligned.
+    panels = [("q1", "pos_meas1", "q1 (rad)", (math.pi, -math.pi)),
+              ("q2", "pos_meas2", "q2 (rad)", (0.0,))]
     ref = None
     if args.reference:
         ref = read_columns(args.reference, ["time", "pos_meas1", "pos_meas2", "tau_con1"])
@@ -96,7 +114,8 @@ def main():
         ax.plot(ours["t"], ours[mine], color="C0", label=label)
         if ref:
             ax.plot(ref["time"], ref[theirs], color="C1", label=args.reference_label)
-        ax.axhline(goal, color="0.5", lw=0.8, ls="--")
+        for g in goal:
+            ax.axhline(g, color="0.5", lw=0.8, ls="--")
         ax.set_ylabel(ylabel)
     # the policy's torque is held over each control period: a step plot
     axes[2].step(ours["t"], ours["tau1"], where="post", color="C0", label=label)
@@ -105,7 +124,7 @@ def main():
     axes[2].set_ylabel("torque on joint 1 (N m)")
     axes[2].set_xlabel("time (s)")
     axes[2].set_xlim(0, args.seconds)
-    axes[0].legend(loc="lower right", fontsize=8)
+    axes[0].legend(loc="center right", fontsize=8)
     fig.suptitle("RealAIGym pendubot swing-up (simulation, design C.1)")
     fig.tight_layout()
     fig.savefig(args.output, dpi=110)
