@@ -42,8 +42,8 @@ def read_columns(path, names):
     return out
 
 
-def best_episode(run_dir):
-    """The episode (its number) with the highest realai_score in RUN_DIR/episodes.csv, and that score."""
+def episode_rows(run_dir):
+    """The rows of RUN_DIR/episodes.csv; exits when there is no such file or no realai_score."""
     path = os.path.join(run_dir, "episodes.csv")
     if not os.path.exists(path):
         sys.exit(f"{path}: no such file (RUN_DIR must be a drops run directory)")
@@ -51,20 +51,21 @@ def best_episode(run_dir):
         rows = list(csv.DictReader(f))
     if not rows or "realai_score" not in rows[0]:
         sys.exit(f"{path}: no realai_score column (is this a realaigym_pendubot run?)")
+    return rows
+
+
+def best_episode(rows):
+    """The episode (its number) with the highest realai_score among episodes.csv's rows, and that
+    score."""
     best = max(rows, key=lambda r: (float(r["realai_score"]), -int(r["episode"])))
     return int(best["episode"]), float(best["realai_score"])
 
 
-def episode_score(run_dir, episode):
-    """The realai_score of EPISODE in RUN_DIR/episodes.csv; None when the file, the column or the
-    episode is missing."""
-    path = os.path.join(run_dir, "episodes.csv")
-    if not os.path.exists(path):
-        return None
-    with open(path, newline="") as f:
-        for r in csv.DictReader(f):
-            if r.get("episode") == str(episode) and r.get("realai_score", "") != "":
-                return float(r["realai_score"])
+def episode_score(rows, episode):
+    """The realai_score of EPISODE among episodes.csv's rows; None when it has none."""
+    for r in rows:
+        if r["episode"] == str(episode) and r["realai_score"] != "":
+            return float(r["realai_score"])
     return None
 
 
@@ -80,12 +81,13 @@ def main():
     parser.add_argument("--output", required=True, help="the figure (PNG)")
     args = parser.parse_args()
 
+    rows = episode_rows(args.run_dir)
     if args.episode is None:
-        episode, score = best_episode(args.run_dir)
+        episode, score = best_episode(rows)
         label = f"{args.label} (episode {episode}, score {score:.3f})"
     else:
         episode = args.episode
-        score = episode_score(args.run_dir, episode)
+        score = episode_score(rows, episode)
         label = (f"{args.label} (episode {episode}, score {score:.3f})" if score is not None
                  else f"{args.label} (episode {episode})")
     real = os.path.join(args.run_dir, "episodes", f"{episode:03d}", "real.csv")
