@@ -61,6 +61,11 @@ SUMMARY_COLUMNS = {
     "summaries/hexapod-fresh.csv": COMMON + [
         "speed_m_s", "predicted_speed_m_s", "phi_prior", "calibration_quantile",
         "calibration_inside_band", "calibration_gap", "calibration_replay"],
+    "summaries/realaigym-pendubot.csv": COMMON + [
+        "swingup_success", "swingup_time_s", "energy_j", "max_tau_nm", "integrated_tau_nms",
+        "tau_cost", "tau_smoothness_nm", "velocity_cost", "realai_score", "phi",
+        "calibration_quantile", "calibration_inside_band", "calibration_gap",
+        "calibration_replay"],
     "summaries/hexapod-ceiling.csv": [
         "campaign", "search", "task", "algorithm", "damage", "seed", "start", "sigma0",
         "episodes", "status", "best_episode", "best_return", "best_speed_m_s", "max_speed_m_s",
@@ -72,7 +77,9 @@ NUMBERS = {"seed", "episode", "interaction_time_s", "real_return", "predicted_re
            "predicted_speed_m_s", "sigma0", "episodes", "best_episode", "best_return",
            "best_speed_m_s", "max_speed_m_s", "archive_evaluations", "archive_cells",
            "archive_coverage", "calibration_quantile", "calibration_inside_band",
-           "calibration_gap", "calibration_replay"}
+           "calibration_gap", "calibration_replay", "swingup_success", "swingup_time_s",
+           "energy_j", "max_tau_nm", "integrated_tau_nms", "tau_cost", "tau_smoothness_nm",
+           "velocity_cost", "realai_score"}
 REQUIRED = {"campaign", "run", "search", "task", "algorithm", "variant", "seed", "episode",
             "interaction_time_s", "real_return", "solved", "best_return", "best_speed_m_s",
             "best_theta"}
