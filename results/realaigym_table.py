@@ -13,17 +13,27 @@ run and episode, with the leaderboard's criteria of each real episode). Prints, 
 - the final score's median, quartiles and range over runs, and how many runs swung up;
 - drops' row in the leaderboard's own format (its v2 table's columns): the final episode of the
   run with the median final score (the lower median for an even count), success counted over
-  every run's final episode.
+  every run's final episode;
+- per run whose final episode swings up, the v2 score's five terms tanh(pi c / n) of its final
+  episode (0: free, 1: the whole penalty; n: time 20 s, energy 60 J, torque cost 20, smoothness
+  0.1 N m, velocity cost 400; docs/decisions/realaigym-scorer.md), whose mean is 1 - the score:
+  which criteria cost the score. When a recorded score is not the one the terms give (a v1
+  campaign, whose score is linear), the terms are not shown and a line says which seed differs.
 Every run must have the same number of episodes. Standard library only.
 """
 
 import argparse
 import csv
+import math
 import statistics
 import sys
 
 CRITERIA = ["swingup_time_s", "energy_j", "tau_cost", "tau_smoothness_nm", "velocity_cost",
             "realai_score"]
+# The v2 (tanh) score's normalisations, all weights 1 (docs/decisions/realaigym-scorer.md).
+V2_TERMS = [("time", "swingup_time_s", 20.0), ("energy", "energy_j", 60.0),
+            ("τ cost", "tau_cost", 20.0), ("smoothness", "tau_smoothness_nm", 0.1),
+            ("velocity", "velocity_cost", 400.0)]
 
 
 def quartiles(values):
@@ -99,6 +109,24 @@ def main():
           f"seeds) | {held}/{n} | {time:.2f} | {float(m['energy_j']):.2f} | "
           f"{float(m['tau_cost']):.2f} | {float(m['tau_smoothness_nm']):.3f} | "
           f"{float(m['velocity_cost']):.2f} | {float(m['realai_score']):.3f} |")
+    succeeded = [f for f in sorted(finals, key=lambda f: int(f["seed"]))
+                 if f["swingup_success"] == "1"]
+    terms = {f["seed"]: [math.tanh(math.pi * float(f[column]) / n) for _, column, n in V2_TERMS]
+             for f in succeeded}
+    differ = [f for f in succeeded
+              if abs(1.0 - sum(terms[f["seed"]]) / len(V2_TERMS) - float(f["realai_score"])) > 5e-3]
+    print()
+    if differ:
+        f = differ[0]
+        print(f"- the v2 score's terms are not shown: seed {f['seed']}'s recorded score "
+              f"{float(f['realai_score']):.3f} is not the one they give "
+              f"({1.0 - sum(terms[f['seed']]) / len(V2_TERMS):.3f}; not a v2 campaign?).")
+        return
+    print("| seed | " + " | ".join(name for name, _, _ in V2_TERMS) + " | score |")
+    print("|---:|" + "---:|" * (len(V2_TERMS) + 1))
+    for f in succeeded:
+        print(f"| {f['seed']} | " + " | ".join(f"{t:.3f}" for t in terms[f["seed"]])
+              + f" | {float(f['realai_score']):.3f} |")
 
 
 if __name__ == "__main__":

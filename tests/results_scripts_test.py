@@ -210,8 +210,9 @@ class RealAIGymCampaign(unittest.TestCase):
                "integrated_tau_nms", "tau_cost", "tau_smoothness_nm", "velocity_cost",
                "realai_score"]
 
-    def make_campaign(self, d, runs):
-        """runs: {seed: [(swingup_success, swingup_time_s, realai_score), ...]}."""
+    def make_campaign(self, d, runs, criteria=None):
+        """runs: {seed: [(swingup_success, swingup_time_s, realai_score), ...]}; criteria: the
+        other metrics of every episode (default 1.5 each, energy_j 10 seed + episode index)."""
         for seed, episodes in runs.items():
             run_dir = os.path.join(d, "runs", f"seed{seed}")
             os.makedirs(run_dir)
@@ -226,6 +227,7 @@ class RealAIGymCampaign(unittest.TestCase):
                            predicted_return=90, solved=ok, phi="0.5 0.25",
                            swingup_success=ok, swingup_time_s=time, realai_score=score,
                            energy_j=10 * seed + k)
+                row.update(criteria or {})
                 rows.append(row)
             write_summary(os.path.join(run_dir, "episodes.csv"),
                           ["episode", "interaction_time_s", "real_return", "predicted_return",
@@ -258,6 +260,33 @@ class RealAIGymCampaign(unittest.TestCase):
             self.assertIn("final policy of seed 2", row)
             self.assertIn("| 2/3 | 1.10 | 22.00 |", row)
             self.assertTrue(row.rstrip().endswith("| 0.200 |"), row)
+
+    def test_v2_terms(self):
+        """The final episodes' v2 terms tanh(pi c / n), by hand: time 1 s / 20, energy 10 J / 60,
+        torque cost 2 / 20, smoothness 0.05 N m / 0.1, velocity cost 100 / 400 give 0.1558,
+        0.4805, 0.3042, 0.9172, 0.6558 and the score 0.4973. A recorded score the terms do not
+        give (a v1 campaign's) hides them."""
+        criteria = dict(energy_j=10, tau_cost=2, tau_smoothness_nm=0.05, velocity_cost=100)
+        with tempfile.TemporaryDirectory() as d:
+            camp = os.path.join(d, "rg")
+            self.make_campaign(camp, {1: [(0, 9.998, 0), (1, 1.0, 0.4973)],
+                                      2: [(0, 9.998, 0), (0, 9.998, 0)]}, criteria)
+            out_csv = os.path.join(d, "s.csv")
+            self.assertEqual(run("summarize_campaign.py", camp, out_csv)[0], 0)
+            code, out, err = run("realaigym_table.py", out_csv)
+            self.assertEqual(code, 0, err)
+            header = next(line for line in out.splitlines() if line.startswith("| seed | time"))
+            rows = [line for line in out.splitlines()[out.splitlines().index(header):]
+                    if line.startswith("| 1 |") or line.startswith("| 2 |")]
+            self.assertEqual(rows, ["| 1 | 0.156 | 0.480 | 0.304 | 0.917 | 0.656 | 0.497 |"])
+            camp_v1 = os.path.join(d, "rg1")
+            self.make_campaign(camp_v1, {1: [(1, 1.0, 0.9)]}, criteria)
+            self.assertEqual(run("summarize_campaign.py", camp_v1, out_csv)[0], 0)
+            code, out, err = run("realaigym_table.py", out_csv)
+            self.assertEqual(code, 0, err)
+            self.assertIn("terms are not shown: seed 1's recorded score 0.900 is not the one they "
+                          "give (0.497", out)
+            self.assertNotIn("| seed | time", out)
 
     def test_runs_of_different_lengths_are_refused(self):
         with tempfile.TemporaryDirectory() as d:
