@@ -66,6 +66,11 @@ SUMMARY_COLUMNS = {
         "tau_cost", "tau_smoothness_nm", "velocity_cost", "realai_score", "phi",
         "calibration_quantile", "calibration_inside_band", "calibration_gap",
         "calibration_replay"],
+    "summaries/realaigym-pendubot-3nm.csv": COMMON + [
+        "swingup_success", "swingup_time_s", "energy_j", "max_tau_nm", "integrated_tau_nms",
+        "tau_cost", "tau_smoothness_nm", "velocity_cost", "realai_score", "phi",
+        "calibration_quantile", "calibration_inside_band", "calibration_gap",
+        "calibration_replay"],
     "summaries/hexapod-ceiling.csv": [
         "campaign", "search", "task", "algorithm", "damage", "seed", "start", "sigma0",
         "episodes", "status", "best_episode", "best_return", "best_speed_m_s", "max_speed_m_s",
