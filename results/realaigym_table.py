@@ -113,14 +113,15 @@ def main():
                  if f["swingup_success"] == "1"]
     terms = {f["seed"]: [math.tanh(math.pi * float(f[column]) / n) for _, column, n in V2_TERMS]
              for f in succeeded}
+    v2_score = {seed: 1.0 - sum(t) / len(t) for seed, t in terms.items()}
     differ = [f for f in succeeded
-              if abs(1.0 - sum(terms[f["seed"]]) / len(V2_TERMS) - float(f["realai_score"])) > 5e-3]
+              if abs(v2_score[f["seed"]] - float(f["realai_score"])) > 5e-3]
     print()
     if differ:
         f = differ[0]
         print(f"- the v2 score's terms are not shown: seed {f['seed']}'s recorded score "
               f"{float(f['realai_score']):.3f} is not the one they give "
-              f"({1.0 - sum(terms[f['seed']]) / len(V2_TERMS):.3f}; not a v2 campaign?).")
+              f"({v2_score[f['seed']]:.3f}; not a v2 campaign?).")
         return
     print("| seed | " + " | ".join(name for name, _, _ in V2_TERMS) + " | score |")
     print("|---:|" + "---:|" * (len(V2_TERMS) + 1))
